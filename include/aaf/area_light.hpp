@@ -1,0 +1,130 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+// The planar (parallelogram) area light, its Gaussian-equivalent σ and an exact unshadowed-irradiance helper.
+
+#include <array>
+#include <cmath>
+#include <numbers>
+
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
+#include "config.hpp"
+
+namespace aaf {
+inline namespace v0 {
+
+/// How light samples are weighted when they are averaged into a pixel's visibility.
+enum class light_weighting {
+    /// Every point of the light counts the same: visibility is the visible fraction of the light's area
+    /// (the quantity the analytic oracles give). Default.
+    uniform,
+    /// The authors' choice: weight exp(-|y - c|² / 2σ²), i.e. a truncated Gaussian emitter (FORMULAS.md §1.4).
+    gaussian,
+    /// Weight by the point-to-area geometry term cosθ_r cosθ_l / r², so that
+    /// visibility × unshadowed_irradiance is the exact shadowed irradiance (a ratio estimator).
+    irradiance,
+};
+
+/// A planar parallelogram light: points `corner + u * edge_u + v * edge_v` for u, v in [0, 1].
+/// It emits from the side its normal `normalize(cross(edge_u, edge_v))` points to, unless `two_sided`.
+template <class T = float>
+struct area_light {
+    using vec3 = glm::vec<3, T>;
+
+    vec3 corner{0};          ///< one corner of the parallelogram (world units)
+    vec3 edge_u{1, 0, 0};    ///< first edge from `corner` (world units)
+    vec3 edge_v{0, 0, 1};    ///< second edge from `corner` (world units)
+    bool two_sided = false;  ///< emit from both faces (default: only towards the normal)
+
+    /// Unit normal, `cross(edge_u, edge_v)` normalised; (0,0,0) for a degenerate light.
+    [[nodiscard]] vec3 normal() const noexcept {
+        const vec3 n = glm::cross(edge_u, edge_v);
+        const T len = glm::length(n);
+        return len > T(0) ? n / len : vec3(0);
+    }
+    [[nodiscard]] T area() const noexcept { return glm::length(glm::cross(edge_u, edge_v)); }
+    [[nodiscard]] vec3 center() const noexcept { return corner + T(0.5) * (edge_u + edge_v); }
+    [[nodiscard]] vec3 point(T u, T v) const noexcept { return corner + u * edge_u + v * edge_v; }
+
+    /// The Gaussian-equivalent standard deviation σ of FORMULAS.md §1.4: σ = √area / 2, so the light's
+    /// equal-area square has side 2σ and its bandwidth is Ω_L = 1/σ (the authors' convention, "reading A").
+    [[nodiscard]] T sigma() const noexcept { return std::sqrt(area()) * T(0.5); }
+
+    /// Perpendicular distance from `p` to the light's plane (always ≥ 0). This is the theory's d1 (§1.1).
+    [[nodiscard]] T plane_distance(const vec3& p) const noexcept { return std::abs(glm::dot(p - corner, normal())); }
+
+    /// True when the light emits towards `p` (p strictly in front of an emitting face).
+    [[nodiscard]] bool emits_towards(const vec3& p) const noexcept {
+        const T side = glm::dot(p - corner, normal());
+        return two_sided ? side != T(0) : side > T(0);
+    }
+
+    /// Weight of light point `y` for a receiver at `p` with unit normal `n`, under `weighting`.
+    /// Zero when `y` is below the receiver's horizon or `p` is behind a one-sided light.
+    [[nodiscard]] T sample_weight(light_weighting weighting, const vec3& p, const vec3& n, const vec3& y) const noexcept {
+        const vec3 to_light = y - p;
+        const T cos_r = glm::dot(n, to_light);
+        if (!(cos_r > T(0))) return T(0);
+        const vec3 ln = normal();
+        const T cos_l_signed = -glm::dot(ln, to_light);
+        if (two_sided ? cos_l_signed == T(0) : !(cos_l_signed > T(0))) return T(0);
+        switch (weighting) {
+            case light_weighting::uniform: return T(1);
+            case light_weighting::gaussian: {
+                const T s = sigma();
+                if (!(s > T(0))) return T(1);
+                const vec3 dc = y - center();
+                return std::exp(-glm::dot(dc, dc) / (T(2) * s * s));
+            }
+            case light_weighting::irradiance: {
+                const T r2 = glm::dot(to_light, to_light);
+                if (!(r2 > T(0))) return T(0);
+                // cosθ_r cosθ_l / r² with both cosines taken from the unnormalised vector: divide by r⁴.
+                return cos_r * std::abs(cos_l_signed) / (r2 * r2);
+            }
+        }
+        return T(0);
+    }
+};
+
+/// Exact unshadowed irradiance at `p` (unit normal `n`) from the light with constant `radiance`
+/// (W·sr⁻¹·m⁻² per unit of your choice): E = radiance · π · F, with F the point-to-polygon form factor
+/// (Lambert's contour formula), after clipping the light to the receiver's upper hemisphere.
+/// Returns 0 behind a one-sided light or when the light is wholly below the horizon.
+template <class T>
+[[nodiscard]] T unshadowed_irradiance(const area_light<T>& light, const glm::vec<3, T>& p, const glm::vec<3, T>& n,
+                                      T radiance = T(1)) noexcept {
+    using vec3 = glm::vec<3, T>;
+    if (!light.emits_towards(p)) return T(0);
+    // Light polygon relative to p, clipped against the plane dot(n, x) >= 0 (Sutherland–Hodgman, ≤ 5 vertices).
+    const std::array<vec3, 4> quad = {light.corner - p, light.corner + light.edge_u - p,
+                                      light.corner + light.edge_u + light.edge_v - p, light.corner + light.edge_v - p};
+    std::array<vec3, 8> poly{};
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < 4; ++i) {
+        const vec3& a = quad[i];
+        const vec3& b = quad[(i + 1) % 4];
+        const T da = glm::dot(n, a);
+        const T db = glm::dot(n, b);
+        if (da >= T(0)) poly[count++] = a;
+        if ((da >= T(0)) != (db >= T(0))) poly[count++] = a + (b - a) * (da / (da - db));
+    }
+    if (count < 3) return T(0);
+    // Lambert: F = 1/(2π) Σ θ_i n·Γ_i with Γ_i the unit normal of the plane through p and edge i.
+    T sum = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+        const vec3 a = glm::normalize(poly[i]);
+        const vec3 b = glm::normalize(poly[(i + 1) % count]);
+        const vec3 c = glm::cross(a, b);
+        const T sin_theta = glm::length(c);
+        if (!(sin_theta > T(0))) continue;
+        const T theta = std::atan2(sin_theta, glm::dot(a, b));
+        sum += theta * glm::dot(n, c / sin_theta);
+    }
+    // The sign depends on the polygon's winding as seen from p; irradiance is its magnitude.
+    return radiance * std::abs(sum) * T(0.5);
+}
+
+}  // namespace v0
+}  // namespace aaf

@@ -1,0 +1,135 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+// Executors: who runs the rows. A sequential default, a std::thread pool made once, or the caller's own.
+
+#include <algorithm>
+#include <atomic>
+#include <concepts>
+#include <condition_variable>
+#include <cstddef>
+#include <exception>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace aaf {
+inline namespace v0 {
+
+/// An executor runs `body(begin, end)` over disjoint sub-ranges covering [0, count) and returns when all
+/// are done. Sub-ranges may run concurrently and in any order; aaf's results never depend on either
+/// (every pixel's samples are keyed by the pixel, not by the thread). Exceptions thrown by `body` must
+/// reach the caller of `parallel_for`.
+template <class E>
+concept executor = requires(E& e, std::size_t count, std::function<void(std::size_t, std::size_t)> body) {
+    { e.parallel_for(count, body) };
+};
+
+/// Runs everything on the calling thread. The default.
+struct sequential_executor {
+    template <class Body>
+    void parallel_for(std::size_t count, Body&& body) const {
+        if (count > 0) body(std::size_t{0}, count);
+    }
+};
+
+/// A fixed pool of std::threads created once (never per call), plus the calling thread, which works too.
+/// `parallel_for` hands out chunks of `grain` items through an atomic counter, so rows of uneven cost
+/// balance. One `parallel_for` runs at a time per pool (concurrent callers are serialised); calling it
+/// from inside a body of the same pool deadlocks, so don't.
+class thread_pool {
+public:
+    /// `threads` = total threads including the caller; 0 = std::thread::hardware_concurrency().
+    explicit thread_pool(std::size_t threads = 0, std::size_t grain = 1) : grain_(std::max<std::size_t>(grain, 1)) {
+        if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+        workers_.reserve(threads - 1);
+        for (std::size_t i = 0; i + 1 < threads; ++i) workers_.emplace_back([this] { worker_loop(); });
+    }
+    thread_pool(const thread_pool&) = delete;
+    thread_pool& operator=(const thread_pool&) = delete;
+    ~thread_pool() {
+        {
+            std::lock_guard lock(mutex_);
+            stop_ = true;
+        }
+        wake_.notify_all();
+        for (auto& w : workers_) w.join();
+    }
+
+    [[nodiscard]] std::size_t size() const noexcept { return workers_.size() + 1; }
+
+    template <class Body>
+    void parallel_for(std::size_t count, Body&& body) {
+        if (count == 0) return;
+        std::lock_guard call_lock(call_mutex_);
+        std::function<void(std::size_t, std::size_t)> job = [&body](std::size_t b, std::size_t e) { body(b, e); };
+        {
+            std::lock_guard lock(mutex_);
+            job_ = &job;
+            count_ = count;
+            next_.store(0);
+            error_ = nullptr;
+            busy_ = workers_.size();
+            ++generation_;
+        }
+        wake_.notify_all();
+        run_chunks();
+        std::unique_lock lock(mutex_);
+        done_.wait(lock, [this] { return busy_ == 0; });
+        job_ = nullptr;
+        if (error_) std::rethrow_exception(error_);
+    }
+
+private:
+    void run_chunks() {
+        for (;;) {
+            const std::size_t begin = next_.fetch_add(grain_);
+            if (begin >= count_) return;
+            try {
+                (*job_)(begin, std::min(begin + grain_, count_));
+            } catch (...) {
+                std::lock_guard lock(mutex_);
+                if (!error_) error_ = std::current_exception();
+                next_.store(count_);  // stop handing out work
+            }
+        }
+    }
+
+    void worker_loop() {
+        std::size_t seen = 0;
+        for (;;) {
+            {
+                std::unique_lock lock(mutex_);
+                wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
+                if (stop_) return;
+                seen = generation_;
+            }
+            run_chunks();
+            {
+                std::lock_guard lock(mutex_);
+                --busy_;
+            }
+            done_.notify_one();
+        }
+    }
+
+    std::size_t grain_;
+    std::vector<std::thread> workers_;
+    std::mutex call_mutex_;
+    std::mutex mutex_;
+    std::condition_variable wake_;
+    std::condition_variable done_;
+    std::function<void(std::size_t, std::size_t)>* job_ = nullptr;
+    std::size_t count_ = 0;
+    std::atomic<std::size_t> next_{0};
+    std::exception_ptr error_;
+    std::size_t busy_ = 0;
+    std::size_t generation_ = 0;
+    bool stop_ = false;
+};
+
+static_assert(executor<sequential_executor>);
+static_assert(executor<thread_pool>);
+
+}  // namespace v0
+}  // namespace aaf

@@ -1,0 +1,165 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+// Gathering occlusion statistics: sampler → shadow segments → the user's tracer → occlusion_stats.
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <span>
+#include <type_traits>
+#include <vector>
+
+#include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "area_light.hpp"
+#include "executor.hpp"
+#include "guides.hpp"
+#include "image_view.hpp"
+#include "occlusion_stats.hpp"
+#include "ray_offset.hpp"
+#include "sampler.hpp"
+#include "settings.hpp"
+#include "tracer.hpp"
+
+namespace aaf {
+inline namespace v0 {
+
+/// The user's G-buffer, read in place. `Ids` is `const_image_view<std::uint32_t>` or `no_guide` (a scene
+/// without object IDs pays nothing for them).
+/// * `positions`: world-space receiver points; a non-finite position means "no surface" (sky).
+/// * `normals`: unit surface normals. Used for the horizon test, for offsetting shadow-ray origins
+///   (towards the light's side) and as a filter guide. Geometric normals avoid self-shadowing on
+///   smooth-shaded low-poly meshes; shading normals also work.
+/// * `pixel_size`: projected pixel size d in world units (formulas.hpp: pinhole_pixel_size).
+template <class T = float, class Ids = no_guide>
+struct gbuffer {
+    const_image_view<glm::vec<3, T>> positions;
+    const_image_view<glm::vec<3, T>> normals;
+    const_image_view<T> pixel_size;
+    Ids ids{};
+
+    static constexpr bool has_ids = !std::is_same_v<Ids, no_guide>;
+    [[nodiscard]] std::size_t width() const noexcept { return positions.width(); }
+    [[nodiscard]] std::size_t height() const noexcept { return positions.height(); }
+};
+
+namespace detail {
+
+template <class T, class Ids>
+void require_gbuffer(const char* fn, const gbuffer<T, Ids>& gb) {
+    require_nonempty(fn, "gbuffer.positions", gb.positions);
+    const std::size_t w = gb.width(), h = gb.height();
+    require_size(fn, "gbuffer.normals", gb.normals, w, h);
+    require_size(fn, "gbuffer.pixel_size", gb.pixel_size, w, h);
+    if constexpr (gbuffer<T, Ids>::has_ids) require_size(fn, "gbuffer.ids", gb.ids, w, h);
+}
+
+template <class T>
+void require_light(const char* fn, const area_light<T>& light) {
+    const T a = light.area();
+    const bool finite = std::isfinite(light.corner.x + light.corner.y + light.corner.z) &&
+                        std::isfinite(light.edge_u.x + light.edge_u.y + light.edge_u.z) &&
+                        std::isfinite(light.edge_v.x + light.edge_v.y + light.edge_v.z);
+    if (!finite) throw_invalid(fn, "`light` has non-finite corner or edges");
+    if (!(a > T(0))) throw_invalid(fn, "`light` has zero area (its edges are parallel or zero)");
+}
+
+/// Reusable per-thread buffers for one pixel's samples.
+template <class T>
+struct pixel_scratch {
+    std::vector<glm::vec<2, T>> uv;
+    std::vector<shadow_segment<T>> segments;
+    std::vector<occluder_span<T>> hits;
+    std::vector<T> weights;
+    std::vector<std::uint32_t> index;  // which sample each segment belongs to
+};
+
+/// Draws `count` samples for pixel (x, y) and adds them to `stats`. Returns the number of rays traced.
+template <class T, class Tracer>
+std::uint64_t gather_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const area_light<T>& light, const Tracer& tracer,
+                           const sampling_settings& s, const sample_key& key, std::uint32_t count,
+                           occlusion_stats<T>& stats, pixel_scratch<T>& scratch) {
+    scratch.uv.resize(count);
+    generate_samples<T>(s.pattern, key, scratch.uv);
+    scratch.segments.clear();
+    scratch.weights.assign(count, T(0));
+    scratch.index.clear();
+    const T d1 = light.plane_distance(p);
+    const glm::vec<3, T> towards_light = light.center() - p;
+    // Offset the origin to the light's side of the surface (Wächter–Binder: no epsilon to tune).
+    const glm::vec<3, T> offset_normal = glm::dot(n, towards_light) >= T(0) ? n : -n;
+    const glm::vec<3, T> origin = offset_ray_origin(p, offset_normal);
+    for (std::uint32_t i = 0; i < count; ++i) {
+        const glm::vec<3, T> y = light.point(scratch.uv[i].x, scratch.uv[i].y);
+        const T wgt = light.sample_weight(s.weighting, p, n, y);
+        scratch.weights[i] = wgt;
+        if (!(wgt > T(0)) || !std::isfinite(wgt)) continue;
+        const glm::vec<3, T> to = y - origin;
+        const T len = glm::length(to);
+        if (!(len > T(0)) || !std::isfinite(len)) continue;
+        scratch.segments.push_back({origin, to / len, len});
+        scratch.index.push_back(i);
+    }
+    scratch.hits.assign(scratch.segments.size(), occluder_span<T>{});
+    if (!scratch.segments.empty())
+        trace_all<T>(tracer, std::span<const shadow_segment<T>>(scratch.segments), std::span<occluder_span<T>>(scratch.hits));
+    // Samples with no segment (zero weight) are still counted as drawn.
+    std::size_t next = 0;
+    for (std::uint32_t i = 0; i < count; ++i) {
+        if (next < scratch.index.size() && scratch.index[next] == i) {
+            stats.add_sample(scratch.weights[i], d1, scratch.segments[next].length, scratch.hits[next]);
+            ++next;
+        } else {
+            stats.add_sample(T(0), d1, T(0), occluder_span<T>{});
+        }
+    }
+    return scratch.segments.size();
+}
+
+}  // namespace detail
+
+/// Adds `samples_per_pixel` light samples of pass `pass` to every pixel with a surface, accumulating into
+/// `stats` (which the caller initialises, e.g. to `occlusion_stats<T>{}`). When `sample_counts` is
+/// non-empty it gives each pixel's count instead (0 = skip the pixel). Rows run on `exec`; the tracer is
+/// called concurrently (see tracer.hpp). Returns the number of shadow rays traced.
+template <class T, class Ids, class Tracer, class Exec = sequential_executor>
+    requires occlusion_tracer<Tracer, T>
+std::uint64_t gather_occlusion(const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
+                               const sampling_settings& s, std::uint32_t pass, std::uint32_t samples_per_pixel,
+                               image_view<occlusion_stats<T>> stats, const_image_view<std::uint32_t> sample_counts = {},
+                               Exec&& exec = {}) {
+    constexpr const char* fn = "gather_occlusion";
+    detail::require_gbuffer(fn, gb);
+    detail::require_light(fn, light);
+    validate(s, fn);
+    const std::size_t w = gb.width(), h = gb.height();
+    detail::require_size(fn, "stats", stats, w, h);
+    detail::require_size_or_empty(fn, "sample_counts", sample_counts, w, h);
+    if (samples_per_pixel > s.max_samples && sample_counts.empty())
+        detail::throw_invalid(fn, "`samples_per_pixel` exceeds settings.max_samples");
+    std::atomic<std::uint64_t> rays{0};
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        detail::pixel_scratch<T> scratch;
+        std::uint64_t local = 0;
+        for (std::size_t y = y0; y < y1; ++y) {
+            for (std::size_t x = 0; x < w; ++x) {
+                const std::uint32_t count = sample_counts.empty() ? samples_per_pixel : sample_counts(x, y);
+                if (count == 0) continue;
+                const glm::vec<3, T> p = gb.positions(x, y);
+                const glm::vec<3, T> n = gb.normals(x, y);
+                if (!std::isfinite(p.x + p.y + p.z) || !std::isfinite(n.x + n.y + n.z)) continue;
+                const sample_key key{static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y), pass, s.light_index,
+                                     s.frame_seed};
+                local += detail::gather_pixel(p, n, light, tracer, s, key, std::min(count, s.max_samples), stats(x, y), scratch);
+            }
+        }
+        rays += local;
+    });
+    return rays.load();
+}
+
+}  // namespace v0
+}  // namespace aaf

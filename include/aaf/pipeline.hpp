@@ -1,0 +1,209 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+// One call for a whole frame: initial samples → statistics → slope spreading → β and n → adaptive
+// samples → filter → filtered visibility (and the shaded result). Every stage is also public on its own:
+// gather_occlusion (gather.hpp), slopes (occlusion_stats.hpp), spread_slopes and filter_visibility
+// (filter.hpp), filter_width / sample_count (formulas.hpp).
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <type_traits>
+
+#include "area_light.hpp"
+#include "executor.hpp"
+#include "filter.hpp"
+#include "formulas.hpp"
+#include "gather.hpp"
+#include "guides.hpp"
+#include "image.hpp"
+#include "occlusion_stats.hpp"
+#include "settings.hpp"
+#include "tracer.hpp"
+
+namespace aaf {
+inline namespace v0 {
+
+/// Where the frame's results go. `visibility` is required; the others are optional (empty = not wanted).
+template <class T = float>
+struct frame_outputs {
+    image_view<T> visibility;            ///< filtered visibility in [0, 1]
+    image_view<T> shaded{};              ///< filtered visibility × unshadowed irradiance
+    const_image_view<T> unshadowed{};    ///< the caller's unshadowed irradiance; if empty aaf computes it exactly
+};
+
+/// Buffers a frame needs, kept between frames so nothing is allocated per frame. After `render_frame`
+/// they hold every intermediate result, which is what the debug views (debug.hpp) display.
+template <class T = float>
+struct frame_workspace {
+    image<occlusion_stats<T>> stats;         ///< merged statistics of all passes
+    image<slope_pair<T>> slopes;             ///< slopes after spreading and the adaptive pass
+    image<slope_pair<T>> slope_scratch;
+    image<T> filter_width;                   ///< β in world units (0 = not filtered)
+    image<std::uint32_t> adaptive_samples;   ///< samples added by the adaptive pass
+    image<T> raw_visibility;                 ///< unfiltered visibility (NaN where undefined)
+    image<T> filtered;
+    image<T> scratch;
+
+    void resize(std::size_t w, std::size_t h) {
+        if (stats.width() == w && stats.height() == h) return;
+        stats.reset(w, h);
+        slopes.reset(w, h);
+        slope_scratch.reset(w, h);
+        filter_width.reset(w, h);
+        adaptive_samples.reset(w, h);
+        raw_visibility.reset(w, h);
+        filtered.reset(w, h);
+        scratch.reset(w, h);
+    }
+};
+
+/// What a frame cost.
+struct frame_report {
+    std::uint64_t initial_rays = 0;   ///< shadow rays of the first pass
+    std::uint64_t adaptive_rays = 0;  ///< shadow rays of the adaptive pass
+    double initial_ms = 0, adaptive_ms = 0, formulas_ms = 0, filter_ms = 0, total_ms = 0;
+    bool cancelled = false;           ///< the progress callback asked to stop; outputs were not written
+    [[nodiscard]] std::uint64_t rays() const noexcept { return initial_rays + adaptive_rays; }
+};
+
+/// The default progress callback: never cancels.
+struct no_progress {
+    constexpr bool operator()(double) const noexcept { return true; }
+};
+
+namespace detail {
+inline double ms_since(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace detail
+
+/// Renders one frame's shadow from `light` over the G-buffer `gb` with `tracer`.
+///
+/// * Pixels without a surface (non-finite position or normal) get visibility 1; pixels whose whole light
+///   is below their horizon or behind a one-sided light get 0. No such pixel feeds its neighbours.
+/// * `progress(fraction)` is called between stages; returning false cancels the frame before any output
+///   is written (report.cancelled).
+/// * Deterministic: the same inputs and `settings.sampling.frame_seed` give the same image on any executor.
+/// Throws aaf::invalid_argument, before writing anything, for mismatched buffers or invalid settings.
+template <class T, class Ids, class Tracer, class Exec = sequential_executor, class Progress = no_progress>
+    requires occlusion_tracer<Tracer, T>
+frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
+                          const frame_outputs<T>& out, frame_workspace<T>& ws, const frame_settings<T>& settings = {},
+                          Exec&& exec = {}, Progress&& progress = {}) {
+    constexpr const char* fn = "render_frame";
+    using clock = std::chrono::steady_clock;
+    detail::require_gbuffer(fn, gb);
+    detail::require_light(fn, light);
+    validate(settings, fn);
+    const std::size_t w = gb.width(), h = gb.height();
+    detail::require_size(fn, "outputs.visibility", out.visibility, w, h);
+    detail::require_size_or_empty(fn, "outputs.shaded", out.shaded, w, h);
+    detail::require_size_or_empty(fn, "outputs.unshadowed", out.unshadowed, w, h);
+
+    frame_report report;
+    const auto t_frame = clock::now();
+    ws.resize(w, h);
+    ws.stats.fill(occlusion_stats<T>{});
+    ws.adaptive_samples.fill(0);
+    const sampling_settings& ss = settings.sampling;
+    const formula_settings<T>& fs = settings.formulas;
+    const T sigma = light.sigma();
+
+    // 1. Initial samples.
+    auto t0 = clock::now();
+    report.initial_rays = gather_occlusion(gb, light, tracer, ss, 0, ss.initial_samples, ws.stats.view(), {}, exec);
+    report.initial_ms = detail::ms_since(t0);
+    if (!progress(0.4)) return report.cancelled = true, report;
+
+    // 2. Slopes, spread to unoccluded neighbours (same object when IDs are given).
+    t0 = clock::now();
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) ws.slopes(x, y) = slopes(ws.stats(x, y), fs.max_slope);
+    });
+    const auto id_guides = [&] {
+        if constexpr (gbuffer<T, Ids>::has_ids) return guides<no_guide, Ids, no_guide>{{}, gb.ids, {}};
+        else return guides<>{};
+    }();
+    if (settings.filter.spread_slopes)
+        spread_slopes<T>(ws.slopes.view(), ws.slope_scratch.view(), settings.filter.spread_radius, id_guides, exec);
+    report.formulas_ms = detail::ms_since(t0);
+
+    // 3. Adaptive pass: n from the formulas, capped at max_samples in total.
+    if (ss.adaptive && ss.max_samples > ss.initial_samples) {
+        t0 = clock::now();
+        exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+            for (std::size_t y = y0; y < y1; ++y)
+                for (std::size_t x = 0; x < w; ++x) {
+                    const T n = sample_count(ws.slopes(x, y), sigma, gb.pixel_size(x, y), fs);
+                    const std::uint32_t target = target_samples(n, ss.initial_samples, ss.max_samples);
+                    ws.adaptive_samples(x, y) = target - ss.initial_samples;
+                }
+        });
+        report.adaptive_rays = gather_occlusion(gb, light, tracer, ss, 1, 0, ws.stats.view(),
+                                                ws.adaptive_samples.cview(), exec);
+        // Pixels that now have occluders of their own use their own slopes; the others keep the spread ones.
+        exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+            for (std::size_t y = y0; y < y1; ++y)
+                for (std::size_t x = 0; x < w; ++x)
+                    if (ws.stats(x, y).has_occluder()) ws.slopes(x, y) = slopes(ws.stats(x, y), fs.max_slope);
+        });
+        report.adaptive_ms = detail::ms_since(t0);
+    }
+    if (!progress(0.8)) return report.cancelled = true, report;
+
+    // 4. β per pixel and the unfiltered visibility.
+    t0 = clock::now();
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                ws.filter_width(x, y) = filter_width(ws.slopes(x, y), sigma, gb.pixel_size(x, y), fs);
+                ws.raw_visibility(x, y) = ws.stats(x, y).visibility();
+            }
+    });
+    report.formulas_ms += detail::ms_since(t0);
+
+    // 5. Filter, with normals always and IDs when the G-buffer has them.
+    t0 = clock::now();
+    if (settings.filter.space == offset_space::light_plane) {
+        guides<const_image_view<glm::vec<3, T>>, Ids, const_image_view<glm::vec<3, T>>> g{gb.normals, gb.ids, gb.positions};
+        filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), gb.pixel_size, ws.filtered.view(),
+                             ws.scratch.view(), g, settings.filter, light.normal(), exec);
+    } else {
+        guides<const_image_view<glm::vec<3, T>>, Ids, no_guide> g{gb.normals, gb.ids, {}};
+        filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), gb.pixel_size, ws.filtered.view(),
+                             ws.scratch.view(), g, settings.filter, light.normal(), exec);
+    }
+    report.filter_ms = detail::ms_since(t0);
+    if (!progress(0.95)) return report.cancelled = true, report;
+
+    // 6. Outputs.
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                const glm::vec<3, T> p = gb.positions(x, y);
+                const glm::vec<3, T> n = gb.normals(x, y);
+                const bool surface = std::isfinite(p.x + p.y + p.z) && std::isfinite(n.x + n.y + n.z);
+                T v = ws.filtered(x, y);
+                if (!surface) v = T(1);
+                else if (!ws.stats(x, y).has_light() || !std::isfinite(v)) v = T(0);
+                v = std::clamp(v, T(0), T(1));
+                out.visibility(x, y) = v;
+                if (!out.shaded.empty()) {
+                    T e = T(0);
+                    if (!out.unshadowed.empty()) e = out.unshadowed(x, y);
+                    else if (surface) e = unshadowed_irradiance(light, p, n, settings.radiance);
+                    out.shaded(x, y) = v * e;
+                }
+            }
+    });
+    report.total_ms = detail::ms_since(t_frame);
+    progress(1.0);
+    return report;
+}
+
+}  // namespace v0
+}  // namespace aaf

@@ -1,0 +1,170 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+// Deterministic per-pixel light-sample sequences on the unit square.
+
+#include <cmath>
+#include <cstdint>
+#include <span>
+
+#include <glm/vec2.hpp>
+
+#include "config.hpp"
+
+namespace aaf {
+inline namespace v0 {
+
+/// Which point set a pixel's light samples come from.
+enum class sample_pattern {
+    /// Jittered strata of equal area for *any* n (rows of ⌊√n⌋ or ⌈√n⌉ cells, row heights proportional
+    /// to their cell count so every stratum has area exactly 1/n). Default.
+    stratified,
+    /// The same strata's centres, no jitter, identical for every pixel (Heckbert–Herf style accumulation;
+    /// shows banding, which is the point of having it as a baseline).
+    regular_grid,
+    /// A 2-D Sobol' (0,2)-sequence with hash-based Owen scrambling per pixel (Burley 2020): every
+    /// power-of-two prefix is a (0, m, 2)-net, and any n is allowed.
+    low_discrepancy,
+};
+
+/// Identifies one pixel's sequence. Samples depend on these fields only: never on thread count or tile order.
+struct sample_key {
+    std::uint32_t x = 0;           ///< pixel column
+    std::uint32_t y = 0;           ///< pixel row
+    std::uint32_t pass = 0;        ///< 0 = initial samples, 1 = first adaptive pass, ...
+    std::uint32_t light = 0;       ///< light index when a frame has several lights
+    std::uint32_t frame_seed = 0;  ///< change per frame to decorrelate noise over time
+};
+
+namespace detail {
+
+/// A 32-bit integer hash with good avalanche (Wellons' "lowbias32").
+[[nodiscard]] constexpr std::uint32_t hash32(std::uint32_t x) noexcept {
+    x ^= x >> 16;
+    x *= 0x7feb352dU;
+    x ^= x >> 15;
+    x *= 0x846ca68bU;
+    x ^= x >> 16;
+    return x;
+}
+
+[[nodiscard]] constexpr std::uint32_t hash_combine(std::uint32_t seed, std::uint32_t v) noexcept {
+    return hash32(seed ^ (v + 0x9e3779b9U + (seed << 6) + (seed >> 2)));
+}
+
+[[nodiscard]] constexpr std::uint32_t key_hash(const sample_key& k) noexcept {
+    std::uint32_t h = hash32(k.frame_seed ^ 0x5bd1e995U);
+    h = hash_combine(h, k.x);
+    h = hash_combine(h, k.y);
+    h = hash_combine(h, k.pass);
+    h = hash_combine(h, k.light);
+    return h;
+}
+
+/// Maps 32 random bits to [0, 1) exactly representable in float (24 bits) — never returns 1.
+template <class T>
+[[nodiscard]] constexpr T to_unit(std::uint32_t bits) noexcept {
+    return static_cast<T>(bits >> 8) * static_cast<T>(1.0 / 16777216.0);
+}
+
+[[nodiscard]] constexpr std::uint32_t reverse_bits(std::uint32_t x) noexcept {
+    x = ((x >> 1) & 0x55555555U) | ((x & 0x55555555U) << 1);
+    x = ((x >> 2) & 0x33333333U) | ((x & 0x33333333U) << 2);
+    x = ((x >> 4) & 0x0F0F0F0FU) | ((x & 0x0F0F0F0FU) << 4);
+    x = ((x >> 8) & 0x00FF00FFU) | ((x & 0x00FF00FFU) << 8);
+    return (x >> 16) | (x << 16);
+}
+
+/// Laine–Karras style nested-uniform scramble of a bit-reversed value (Burley 2020, "Practical
+/// Hash-based Owen Scrambling").
+[[nodiscard]] constexpr std::uint32_t laine_karras(std::uint32_t x, std::uint32_t seed) noexcept {
+    x += seed;
+    x ^= x * 0x6c50b47cU;
+    x ^= x * 0xb82f1e52U;
+    x ^= x * 0xc7afe638U;
+    x ^= x * 0x8d22f6e6U;
+    return x;
+}
+
+[[nodiscard]] constexpr std::uint32_t owen_scramble(std::uint32_t x, std::uint32_t seed) noexcept {
+    return reverse_bits(laine_karras(reverse_bits(x), seed));
+}
+
+/// Sobol' dimension 0 (van der Corput) and 1 (the Pascal-matrix dimension) as 32-bit fractions.
+[[nodiscard]] constexpr std::uint32_t sobol_dim0(std::uint32_t i) noexcept { return reverse_bits(i); }
+[[nodiscard]] constexpr std::uint32_t sobol_dim1(std::uint32_t i) noexcept {
+    std::uint32_t result = 0;
+    for (std::uint32_t v = 1U << 31; i != 0; i >>= 1, v ^= v >> 1)
+        if (i & 1U) result ^= v;
+    return result;
+}
+
+/// Row layout of the equal-area strata for n samples: `rows` rows; the first `rows_with_extra` rows hold
+/// `base_cols + 1` cells, the rest `base_cols`. Row heights are proportional to cell counts.
+struct strata_layout {
+    std::uint32_t rows = 1;
+    std::uint32_t base_cols = 1;
+    std::uint32_t rows_with_extra = 0;
+};
+
+[[nodiscard]] inline strata_layout make_strata(std::uint32_t n) noexcept {
+    strata_layout s;
+    if (n == 0) return s;
+    auto rows = static_cast<std::uint32_t>(std::sqrt(static_cast<double>(n)));
+    while (rows * rows > n) --rows;        // guard against sqrt rounding up
+    while ((rows + 1) * (rows + 1) <= n) ++rows;
+    s.rows = rows;
+    s.base_cols = n / rows;
+    s.rows_with_extra = n % rows;
+    return s;
+}
+
+}  // namespace detail
+
+/// Generates the light samples of one pixel in [0, 1)², to be mapped onto the light by
+/// `area_light::point(u, v)`. A pure function of (pattern, key, n): thread-safe, allocation-free.
+///
+/// Different passes of the same pixel (key.pass) get independent sequences; the adaptive pass therefore
+/// adds *new* stratified samples rather than repeating the initial ones.
+template <class T = float>
+void generate_samples(sample_pattern pattern, const sample_key& key, std::span<glm::vec<2, T>> out) noexcept {
+    const auto n = static_cast<std::uint32_t>(out.size());
+    if (n == 0) return;
+    const std::uint32_t seed = detail::key_hash(key);
+    if (pattern == sample_pattern::low_discrepancy) {
+        const std::uint32_t index_seed = detail::hash32(seed ^ 0xa511e9b3U);
+        const std::uint32_t sx = detail::hash32(seed ^ 0x63d83595U);
+        const std::uint32_t sy = detail::hash32(seed ^ 0x0b4f3a5dU);
+        for (std::uint32_t i = 0; i < n; ++i) {
+            // Scrambling the index shuffles which points a prefix uses while keeping the net property.
+            const std::uint32_t j = detail::owen_scramble(i, index_seed);
+            out[i] = {detail::to_unit<T>(detail::owen_scramble(detail::sobol_dim0(j), sx)),
+                      detail::to_unit<T>(detail::owen_scramble(detail::sobol_dim1(j), sy))};
+        }
+        return;
+    }
+    const detail::strata_layout s = detail::make_strata(n);
+    std::uint32_t i = 0;
+    T row_start = 0;
+    for (std::uint32_t r = 0; r < s.rows; ++r) {
+        const std::uint32_t cols = s.base_cols + (r < s.rows_with_extra ? 1U : 0U);
+        const T row_height = static_cast<T>(cols) / static_cast<T>(n);
+        for (std::uint32_t c = 0; c < cols; ++c, ++i) {
+            T jx = T(0.5), jy = T(0.5);
+            if (pattern == sample_pattern::stratified) {
+                const std::uint32_t h = detail::hash_combine(seed, i);
+                jx = detail::to_unit<T>(h);
+                jy = detail::to_unit<T>(detail::hash32(h ^ 0x68e31da4U));
+            }
+            T u = (static_cast<T>(c) + jx) / static_cast<T>(cols);
+            T v = row_start + jy * row_height;
+            // Keep the half-open square even after rounding (a v of exactly 1 would sample the far edge twice).
+            if (!(u < T(1))) u = std::nextafter(T(1), T(0));
+            if (!(v < T(1))) v = std::nextafter(T(1), T(0));
+            out[i] = {u, v};
+        }
+        row_start += row_height;
+    }
+}
+
+}  // namespace v0
+}  // namespace aaf

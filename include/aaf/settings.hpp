@@ -1,0 +1,121 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+// Settings structs with documented defaults and ranges, their validation, and named presets.
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+#include "area_light.hpp"
+#include "config.hpp"
+#include "sampler.hpp"
+
+namespace aaf {
+inline namespace v0 {
+
+/// Which published form of the filter bandwidth Ω* and sample count n to use (FORMULAS.md §1.7, §1.9).
+enum class formula_form {
+    /// The paper's equations: Ω* = μ·min(Ω_L/s2, Ω_x^max), β = 1/(kΩ*),
+    /// n = 4(1 + μ s1/s2)² (μ (2/s2) √(A_p/A_l) + α/(1+s2))². Default.
+    paper,
+    /// The authors' code, generalised: μ scales only the light bound, Ω* = min(μ/(σ s2), α/(d(1+s2))), and
+    /// n = 4(α/(1+s2) + dΩ*)² (1 + σ·min(s1Ω*, s1/(d(1+s1))))². Identical to `paper` when light-limited;
+    /// finite at contact shadows and point lights where the paper's n diverges (and is clamped).
+    authors,
+};
+
+/// Constants of the formulas (FORMULAS.md §1.8). Units: none unless stated.
+template <class T = float>
+struct formula_settings {
+    formula_form form = formula_form::paper;  ///< paper or authors' form
+    T k = 3;                                  ///< filter-width divisor, β = 1/(kΩ*); (0, ∞), paper 3
+    T mu = 2;                                 ///< filter shrink / sample increase factor; [1, ∞), paper 2
+    T alpha = 1;                              ///< pixel-bandwidth scale; (0, ∞), paper 1
+    T max_slope = T(1e6);                     ///< guard: slopes are capped here (d2 ≥ d1/(1+max_slope)); > 0
+};
+
+/// How many shadow samples each pixel gets and how they are drawn.
+struct sampling_settings {
+    std::uint32_t initial_samples = 9;     ///< samples per pixel in the first pass; [1, 4096], paper 9
+    std::uint32_t max_samples = 100;       ///< cap on a pixel's total (initial + adaptive); ≥ initial_samples
+    bool adaptive = true;                  ///< run the adaptive pass (n from the formulas, capped)
+    sample_pattern pattern = sample_pattern::stratified;  ///< point set on the light
+    light_weighting weighting = light_weighting::uniform;  ///< how samples are averaged
+    std::uint32_t frame_seed = 0;          ///< decorrelates frames; same seed ⇒ same image
+    std::uint32_t light_index = 0;         ///< identifies the light in the sample key (several lights)
+};
+
+/// Where the filter measures the distance between two pixels (FORMULAS.md §1.11).
+enum class offset_space {
+    image,        ///< pixel offsets, β converted to pixels with the centre's projected pixel size (cheap)
+    light_plane,  ///< world offsets projected onto the light plane, as the theory and the authors' code
+};
+
+/// The separable Gaussian filter and the slope-spreading pass.
+template <class T = float>
+struct filter_settings {
+    offset_space space = offset_space::image;  ///< image-space or light-parallel world offsets
+    T truncation = 3;                          ///< kernel radius in units of β; (0, 10], 3 keeps 99.7 %
+    std::uint32_t max_radius = 24;             ///< cap on the kernel radius in pixels; [0, 1024]
+    T normal_threshold_degrees = 20;           ///< reject neighbours whose normal differs more; (0, 180], authors 20
+    bool spread_slopes = true;                 ///< give unoccluded pixels their occluded neighbours' slopes (§1.12)
+    std::uint32_t spread_radius = 10;          ///< radius of that spreading in pixels; [0, 1024], authors 10
+};
+
+/// Everything one frame needs besides buffers, light and tracer.
+template <class T = float>
+struct frame_settings {
+    sampling_settings sampling{};
+    formula_settings<T> formulas{};
+    filter_settings<T> filter{};
+    T radiance = 1;  ///< light radiance used by the shaded output's exact unshadowed irradiance
+};
+
+namespace detail {
+
+inline void require(bool ok, const char* function, const char* field, const std::string& what) {
+    if (!ok) throw_invalid(function, std::string("`") + field + "` " + what);
+}
+
+}  // namespace detail
+
+/// Throws aaf::invalid_argument naming the first invalid field, e.g. "`settings.formulas.k` must be > 0 (got -1)".
+template <class T>
+void validate(const formula_settings<T>& s, const char* function = "validate") {
+    using detail::require;
+    require(std::isfinite(s.k) && s.k > T(0), function, "settings.formulas.k", "must be finite and > 0 (got " + std::to_string(s.k) + ")");
+    require(std::isfinite(s.mu) && s.mu >= T(1), function, "settings.formulas.mu", "must be finite and >= 1 (got " + std::to_string(s.mu) + ")");
+    require(std::isfinite(s.alpha) && s.alpha > T(0), function, "settings.formulas.alpha", "must be finite and > 0 (got " + std::to_string(s.alpha) + ")");
+    require(s.max_slope > T(0), function, "settings.formulas.max_slope", "must be > 0 (got " + std::to_string(s.max_slope) + ")");
+}
+
+inline void validate(const sampling_settings& s, const char* function = "validate") {
+    using detail::require;
+    require(s.initial_samples >= 1 && s.initial_samples <= 4096, function, "settings.sampling.initial_samples",
+            "must be in [1, 4096] (got " + std::to_string(s.initial_samples) + ")");
+    require(s.max_samples >= s.initial_samples && s.max_samples <= 1u << 20, function, "settings.sampling.max_samples",
+            "must be in [initial_samples, 2^20] (got " + std::to_string(s.max_samples) + ")");
+}
+
+template <class T>
+void validate(const filter_settings<T>& s, const char* function = "validate") {
+    using detail::require;
+    require(std::isfinite(s.truncation) && s.truncation > T(0) && s.truncation <= T(10), function,
+            "settings.filter.truncation", "must be in (0, 10] (got " + std::to_string(s.truncation) + ")");
+    require(s.max_radius <= 1024, function, "settings.filter.max_radius", "must be <= 1024 (got " + std::to_string(s.max_radius) + ")");
+    require(s.normal_threshold_degrees > T(0) && s.normal_threshold_degrees <= T(180), function,
+            "settings.filter.normal_threshold_degrees", "must be in (0, 180] (got " + std::to_string(s.normal_threshold_degrees) + ")");
+    require(s.spread_radius <= 1024, function, "settings.filter.spread_radius", "must be <= 1024 (got " + std::to_string(s.spread_radius) + ")");
+}
+
+template <class T>
+void validate(const frame_settings<T>& s, const char* function = "validate") {
+    validate(s.sampling, function);
+    validate(s.formulas, function);
+    validate(s.filter, function);
+    detail::require(std::isfinite(s.radiance) && s.radiance >= T(0), function, "settings.radiance",
+                    "must be finite and >= 0 (got " + std::to_string(s.radiance) + ")");
+}
+
+}  // namespace v0
+}  // namespace aaf
