@@ -52,15 +52,16 @@ struct analytic_scene {
 
     /// Exact visible fraction of the light (uniform weighting) from receiver point p (on y = 0).
     [[nodiscard]] double exact_visibility(const vec3<T>& p) const {
-        const double H = light.y;
+        const auto D = [](T v) { return static_cast<double>(v); };
+        const double H = D(light.y), px = D(p.x), pz = D(p.z);
         std::vector<std::array<double, 4>> boxes;  // projections clipped to the light
         for (const rect<T>& o : occluders) {
-            if (!(o.y > 0 && o.y < H)) continue;
-            const double s = H / o.y;
-            double a0 = p.x + (o.x0 - p.x) * s, a1 = p.x + (o.x1 - p.x) * s;
-            double b0 = p.z + (o.z0 - p.z) * s, b1 = p.z + (o.z1 - p.z) * s;
-            a0 = std::max<double>(a0, light.x0), a1 = std::min<double>(a1, light.x1);
-            b0 = std::max<double>(b0, light.z0), b1 = std::min<double>(b1, light.z1);
+            if (!(D(o.y) > 0 && D(o.y) < H)) continue;
+            const double s = H / D(o.y);
+            double a0 = px + (D(o.x0) - px) * s, a1 = px + (D(o.x1) - px) * s;
+            double b0 = pz + (D(o.z0) - pz) * s, b1 = pz + (D(o.z1) - pz) * s;
+            a0 = std::max(a0, D(light.x0)), a1 = std::min(a1, D(light.x1));
+            b0 = std::max(b0, D(light.z0)), b1 = std::min(b1, D(light.z1));
             if (a0 < a1 && b0 < b1) boxes.push_back({a0, a1, b0, b1});
         }
         // Exact union area by coordinate compression (a handful of boxes).
@@ -78,7 +79,7 @@ struct analytic_scene {
                         break;
                     }
             }
-        const double area = (double(light.x1) - light.x0) * (double(light.z1) - light.z0);
+        const double area = (D(light.x1) - D(light.x0)) * (D(light.z1) - D(light.z0));
         return 1.0 - covered / area;
     }
 
