@@ -19,12 +19,14 @@ namespace {
 
 constexpr std::size_t W = 1280, H = 720;
 
-/// A tracer that answers at once: isolates aaf's per-ray work from tracing.
+/// A tracer that answers at once: isolates aaf's per-ray work from tracing. `random_hits` decides hit or
+/// miss from a bit of the ray direction (unpredictable branches, the worst case); otherwise the left half
+/// of the frame is in shadow (coherent, like real shadows).
 struct instant_tracer {
-    float fraction = 0.5f;  // report an occluder halfway along every other ray
+    bool random_hits = false;
     aaf::occluder_span<float> occluder_span(const aaf::shadow_segment<float>& s) const {
-        const bool hit = (std::bit_cast<std::uint32_t>(s.direction.x) & 1u) != 0;
-        return hit ? aaf::occluder_span<float>{fraction * s.length, fraction * s.length} : aaf::occluder_span<float>{};
+        const bool hit = random_hits ? (std::bit_cast<std::uint32_t>(s.direction.x) & 1u) != 0 : s.origin.x < 1.28f;
+        return hit ? aaf::occluder_span<float>{0.5f * s.length, 0.5f * s.length} : aaf::occluder_span<float>{};
     }
 };
 
@@ -74,7 +76,8 @@ void BM_per_ray_overhead(benchmark::State& state) {
     std::uint64_t rays = 0;
     for (auto _ : state) {
         stats.fill({});
-        rays += aaf::gather_occlusion(f.gbuffer(), light, instant_tracer{}, s, 0, s.initial_samples, stats.view());
+        rays += aaf::gather_occlusion(f.gbuffer(), light, instant_tracer{state.range(2) != 0}, s, 0, s.initial_samples,
+                                      stats.view());
         benchmark::DoNotOptimize(stats.data());
     }
     // Seconds per ray, shown with an SI prefix (e.g. "26n" = 26 ns per ray).
@@ -83,8 +86,8 @@ void BM_per_ray_overhead(benchmark::State& state) {
     state.SetItemsProcessed(static_cast<std::int64_t>(rays));
 }
 BENCHMARK(BM_per_ray_overhead)
-    ->ArgsProduct({{9, 16, 64}, {0, 2}})
-    ->ArgNames({"spp", "pattern"})
+    ->ArgsProduct({{9, 16, 64}, {0, 2}, {0, 1}})
+    ->ArgNames({"spp", "pattern", "random_hits"})
     ->Unit(benchmark::kMillisecond);
 
 void BM_formulas_per_pixel(benchmark::State& state) {

@@ -67,6 +67,42 @@ void require_light(const char* fn, const area_light<T>& light) {
     if (!(a > T(0))) throw_invalid(fn, "`light` has zero area (its edges are parallel or zero)");
 }
 
+/// What every sample of a frame needs from the light, computed once per call instead of per sample
+/// (the normal alone costs a cross product and a square root). Weights match area_light::sample_weight.
+template <class T>
+struct light_frame {
+    glm::vec<3, T> normal, center;
+    T inv_two_sigma2 = 0;
+    bool two_sided = false;
+    light_weighting weighting = light_weighting::uniform;
+
+    light_frame(const area_light<T>& light, light_weighting w) noexcept
+        : normal(light.normal()), center(light.center()), two_sided(light.two_sided), weighting(w) {
+        const T s = light.sigma();
+        inv_two_sigma2 = s > T(0) ? T(1) / (T(2) * s * s) : T(0);
+    }
+
+    /// Weight of light point y seen from p (unit normal n) along the unnormalised `to_light` = y − p.
+    [[nodiscard]] T weight(const glm::vec<3, T>& n, const glm::vec<3, T>& to_light, const glm::vec<3, T>& y) const noexcept {
+        const T cos_r = glm::dot(n, to_light);
+        if (!(cos_r > T(0))) return T(0);
+        const T cos_l = -glm::dot(normal, to_light);
+        if (two_sided ? cos_l == T(0) : !(cos_l > T(0))) return T(0);
+        switch (weighting) {
+            case light_weighting::uniform: return T(1);
+            case light_weighting::gaussian: {
+                const glm::vec<3, T> dc = y - center;
+                return std::exp(-glm::dot(dc, dc) * inv_two_sigma2);
+            }
+            case light_weighting::irradiance: {
+                const T r2 = glm::dot(to_light, to_light);
+                return r2 > T(0) ? cos_r * std::abs(cos_l) / (r2 * r2) : T(0);
+            }
+        }
+        return T(0);
+    }
+};
+
 /// Reusable per-thread buffers for one pixel's samples.
 template <class T>
 struct pixel_scratch {
@@ -74,49 +110,45 @@ struct pixel_scratch {
     std::vector<shadow_segment<T>> segments;
     std::vector<occluder_span<T>> hits;
     std::vector<T> weights;
-    std::vector<std::uint32_t> index;  // which sample each segment belongs to
 };
 
 /// Draws `count` samples for pixel (x, y) and adds them to `stats`. Returns the number of rays traced.
 template <class T, class Tracer>
-std::uint64_t gather_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const area_light<T>& light, const Tracer& tracer,
-                           const sampling_settings& s, const sample_key& key, std::uint32_t count,
-                           occlusion_stats<T>& stats, pixel_scratch<T>& scratch) {
+std::uint64_t gather_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const area_light<T>& light,
+                           const light_frame<T>& frame, const Tracer& tracer, const sampling_settings& s,
+                           const sample_key& key, std::uint32_t count, occlusion_stats<T>& stats, pixel_scratch<T>& scratch) {
     scratch.uv.resize(count);
     generate_samples<T>(s.pattern, key, scratch.uv);
-    scratch.segments.clear();
-    scratch.weights.assign(count, T(0));
-    scratch.index.clear();
-    const T d1 = light.plane_distance(p);
-    const glm::vec<3, T> towards_light = light.center() - p;
+    if (scratch.segments.size() < count) {  // grows once per thread, then reused
+        scratch.segments.resize(count);
+        scratch.weights.resize(count);
+        scratch.hits.resize(count);
+    }
+    const T d1 = std::abs(glm::dot(p - light.corner, frame.normal));
     // Offset the origin to the light's side of the surface (Wächter–Binder: no epsilon to tune).
-    const glm::vec<3, T> offset_normal = glm::dot(n, towards_light) >= T(0) ? n : -n;
+    const glm::vec<3, T> offset_normal = glm::dot(n, frame.center - p) >= T(0) ? n : -n;
     const glm::vec<3, T> origin = offset_ray_origin(p, offset_normal);
+    std::size_t traced = 0;
     for (std::uint32_t i = 0; i < count; ++i) {
         const glm::vec<3, T> y = light.point(scratch.uv[i].x, scratch.uv[i].y);
-        const T wgt = light.sample_weight(s.weighting, p, n, y);
-        scratch.weights[i] = wgt;
-        if (!(wgt > T(0)) || !std::isfinite(wgt)) continue;
+        const T wgt = frame.weight(n, y - p, y);
         const glm::vec<3, T> to = y - origin;
         const T len = glm::length(to);
-        if (!(len > T(0)) || !std::isfinite(len)) continue;
-        scratch.segments.push_back({origin, to / len, len});
-        scratch.index.push_back(i);
+        if (!(wgt > T(0)) || !std::isfinite(wgt) || !(len > T(0)) || !std::isfinite(len)) continue;
+        scratch.segments[traced] = {origin, to * (T(1) / len), len};  // one division, not three
+        scratch.weights[traced] = wgt;
+        ++traced;
     }
-    scratch.hits.assign(scratch.segments.size(), occluder_span<T>{});
-    if (!scratch.segments.empty())
-        trace_all<T>(tracer, std::span<const shadow_segment<T>>(scratch.segments), std::span<occluder_span<T>>(scratch.hits));
-    // Samples with no segment (zero weight) are still counted as drawn.
-    std::size_t next = 0;
-    for (std::uint32_t i = 0; i < count; ++i) {
-        if (next < scratch.index.size() && scratch.index[next] == i) {
-            stats.add_sample(scratch.weights[i], d1, scratch.segments[next].length, scratch.hits[next]);
-            ++next;
-        } else {
-            stats.add_sample(T(0), d1, T(0), occluder_span<T>{});
-        }
-    }
-    return scratch.segments.size();
+    const std::uint32_t skipped = count - static_cast<std::uint32_t>(traced);  // drawn, counted, not traced
+    std::fill_n(scratch.hits.begin(), traced, occluder_span<T>{});
+    if (traced != 0)
+        trace_all<T>(tracer, std::span<const shadow_segment<T>>(scratch.segments.data(), traced),
+                     std::span<occluder_span<T>>(scratch.hits.data(), traced));
+    // Statistics do not depend on sample order, so traced samples are added first, skipped ones after.
+    for (std::size_t i = 0; i < traced; ++i)
+        stats.add_sample(scratch.weights[i], d1, scratch.segments[i].length, scratch.hits[i]);
+    stats.samples += skipped;
+    return traced;
 }
 
 }  // namespace detail
@@ -141,6 +173,7 @@ std::uint64_t gather_occlusion(const gbuffer<T, Ids>& gb, const area_light<T>& l
     if (samples_per_pixel > s.max_samples && sample_counts.empty())
         detail::throw_invalid(fn, "`samples_per_pixel` exceeds settings.max_samples");
     std::atomic<std::uint64_t> rays{0};
+    const detail::light_frame<T> frame(light, s.weighting);
     exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
         detail::pixel_scratch<T> scratch;
         std::uint64_t local = 0;
@@ -153,7 +186,7 @@ std::uint64_t gather_occlusion(const gbuffer<T, Ids>& gb, const area_light<T>& l
                 if (!std::isfinite(p.x + p.y + p.z) || !std::isfinite(n.x + n.y + n.z)) continue;
                 const sample_key key{static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y), pass, s.light_index,
                                      s.frame_seed};
-                local += detail::gather_pixel(p, n, light, tracer, s, key, std::min(count, s.max_samples), stats(x, y), scratch);
+                local += detail::gather_pixel(p, n, light, frame, tracer, s, key, std::min(count, s.max_samples), stats(x, y), scratch);
             }
         }
         rays += local;

@@ -148,6 +148,7 @@ void generate_samples(sample_pattern pattern, const sample_key& key, std::span<g
     for (std::uint32_t r = 0; r < s.rows; ++r) {
         const std::uint32_t cols = s.base_cols + (r < s.rows_with_extra ? 1U : 0U);
         const T row_height = static_cast<T>(cols) / static_cast<T>(n);
+        const T inv_cols = T(1) / static_cast<T>(cols);  // multiply in the loop, divide once per row
         for (std::uint32_t c = 0; c < cols; ++c, ++i) {
             T jx = T(0.5), jy = T(0.5);
             if (pattern == sample_pattern::stratified) {
@@ -155,7 +156,7 @@ void generate_samples(sample_pattern pattern, const sample_key& key, std::span<g
                 jx = detail::to_unit<T>(h);
                 jy = detail::to_unit<T>(detail::hash32(h ^ 0x68e31da4U));
             }
-            T u = (static_cast<T>(c) + jx) / static_cast<T>(cols);
+            T u = (static_cast<T>(c) + jx) * inv_cols;
             T v = row_start + jy * row_height;
             // Keep the half-open square even after rounding (a v of exactly 1 would sample the far edge twice).
             if (!(u < T(1))) u = std::nextafter(T(1), T(0));
