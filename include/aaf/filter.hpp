@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 #include <type_traits>
 
@@ -34,9 +35,52 @@ template <class T>
     return r < static_cast<T>(s.max_radius) ? static_cast<std::size_t>(r) : s.max_radius;
 }
 
+/// The result of a pass for a non-finite centre: the Gaussian average of its accepted finite neighbours.
+/// Such a centre has no weight of its own, so the result is a ratio of neighbour weights only, and for a
+/// narrow kernel every exp(−e) can underflow to 0 in T (e.g. β/d < 0.07 px in float: exp(−1/(2·0.07²)) = 0)
+/// although valid neighbours exist. The weights are normalised, so evaluate them relative to the largest,
+/// exp(−(e − e_min)); `centre` is returned only when no neighbour is accepted.
+template <pass_direction Dir, offset_space Space, class T, class G>
+[[nodiscard]] T non_finite_centre_average(const_image_view<T> src, const G& g, const guide_center<T, G>& gc,
+                                          const glm::vec<3, T>& p, const glm::vec<3, T>& light_normal, std::size_t x,
+                                          std::size_t y, std::size_t pos, std::size_t extent, std::size_t radius, T a,
+                                          T inv_two_beta2, T cos_threshold, T centre) noexcept {
+    const auto for_each_tap = [&](auto&& f) {
+        for (std::size_t k = 1; k <= radius; ++k)
+            for (int side = -1; side <= 1; side += 2) {
+                if (side < 0 ? k > pos : pos + k >= extent) continue;
+                const std::size_t j = side < 0 ? pos - k : pos + k;
+                const std::size_t nx = Dir == pass_direction::horizontal ? j : x;
+                const std::size_t ny = Dir == pass_direction::horizontal ? y : j;
+                const T v = src(nx, ny);
+                if (!std::isfinite(v) || !gc.accepts(g, nx, ny, cos_threshold)) continue;
+                T e;
+                if constexpr (Space == offset_space::light_plane) {
+                    const glm::vec<3, T> dp = g.positions(nx, ny) - p;
+                    const T along = glm::dot(dp, light_normal);
+                    e = std::max(glm::dot(dp, dp) - along * along, T(0)) * inv_two_beta2;
+                } else {
+                    e = static_cast<T>(k) * static_cast<T>(k) * a;
+                }
+                if (!std::isnan(e)) f(e, v);  // NaN position
+            }
+    };
+    T e_min = std::numeric_limits<T>::infinity();
+    for_each_tap([&](T e, T) { e_min = std::min(e_min, e); });
+    if (!(e_min < std::numeric_limits<T>::infinity())) return centre;
+    T sum = T(0), wsum = T(0);
+    for_each_tap([&](T e, T v) {
+        const T weight = std::exp(-(e - e_min));
+        sum += weight * v;
+        wsum += weight;
+    });
+    return sum / wsum;
+}
+
 /// One 1-D pass. For each pixel: the Gaussian of the *centre's* width over the neighbours along `dir`,
 /// skipping neighbours that are non-finite or rejected by a guide, normalised by the weight sum.
-/// A centre with β ≤ 0 (or NaN) is copied; a centre whose neighbours are all rejected keeps its value.
+/// A centre with β ≤ 0 (or NaN) is copied; a centre whose neighbours are all rejected keeps its value;
+/// a non-finite centre gets its accepted finite neighbours' average (non_finite_centre_average).
 template <pass_direction Dir, offset_space Space, class T, class G>
 void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T> beta, const_image_view<T> pixel_size,
                  const G& g, const glm::vec<3, T>& light_normal, const filter_settings<T>& s, std::size_t y_begin,
@@ -66,15 +110,21 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 }
             }
             const bool centre_ok = std::isfinite(centre);
-            T sum = centre_ok ? centre : T(0);
-            T wsum = centre_ok ? T(1) : T(0);
+            const std::size_t pos = Dir == pass_direction::horizontal ? x : y;
+            const std::size_t extent = Dir == pass_direction::horizontal ? w : h;
+            if (!centre_ok) {
+                dst(x, y) = non_finite_centre_average<Dir, Space>(src, g, gc, p, light_normal, x, y, pos, extent,
+                                                                 radius, T(1) / (T(2) * beta_px * beta_px),
+                                                                 inv_two_beta2, cos_threshold, centre);
+                continue;
+            }
+            T sum = centre;
+            T wsum = T(1);
             // Image space: w_k = exp(-k² a) by the recurrence w_k = w_{k-1}·m_k, m_k = exp(-(2k-1)a):
             // two exp per pixel instead of one per tap.
             const T a = T(1) / (T(2) * beta_px * beta_px);
             T wk = T(1), mk = std::exp(-a);
             const T q = mk * mk;
-            const std::size_t pos = Dir == pass_direction::horizontal ? x : y;
-            const std::size_t extent = Dir == pass_direction::horizontal ? w : h;
             for (std::size_t k = 1; k <= radius; ++k) {
                 if constexpr (Space == offset_space::image) {
                     wk *= mk;
