@@ -64,8 +64,9 @@ heat_range heat_map(const_image_view<V> values, image_view<rgb8> out, heat_range
                 lo = std::min(lo, v);
                 hi = std::max(hi, v);
             }
-        if (std::isnan(range.lo)) range.lo = std::isfinite(lo) ? lo : 0.0;
-        if (std::isnan(range.hi)) range.hi = std::isfinite(hi) ? hi : 1.0;
+        // A bound the caller fixed is in data units, like a fully fixed range: map it as well.
+        range.lo = std::isnan(range.lo) ? (std::isfinite(lo) ? lo : 0.0) : map(range.lo);
+        range.hi = std::isnan(range.hi) ? (std::isfinite(hi) ? hi : 1.0) : map(range.hi);
     } else if (log_scale) {
         range = {map(range.lo), map(range.hi)};
     }
