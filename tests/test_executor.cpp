@@ -1,0 +1,175 @@
+// SPDX-License-Identifier: MIT
+// Executors: the sequential default and the std::thread pool cover [0, count) exactly once, propagate
+// exceptions to the caller, and stay usable; the executor concept accepts and rejects the right types.
+
+#include <catch2/catch.hpp>
+
+#include <atomic>
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <aaf/executor.hpp>
+
+namespace {
+
+struct user_executor {  // any type with parallel_for(count, body) is an executor
+    void parallel_for(std::size_t count, const std::function<void(std::size_t, std::size_t)>& body) {
+        for (std::size_t i = 0; i < count; ++i) body(i, i + 1);
+    }
+};
+struct no_parallel_for {
+    void run(std::size_t, const std::function<void(std::size_t, std::size_t)>&) {}
+};
+struct wrong_signature {
+    void parallel_for(int*) {}
+};
+
+struct my_error {
+    int code;
+};
+
+/// Runs parallel_for(count) and checks every index was visited exactly once with valid, non-empty ranges.
+template <class E>
+void check_coverage(E& exec, std::size_t count, std::size_t max_chunk = 0) {
+    CAPTURE(count, max_chunk);
+    std::unique_ptr<std::atomic<int>[]> hits(new std::atomic<int>[count + 1]);
+    for (std::size_t i = 0; i <= count; ++i) hits[i] = 0;
+    std::atomic<int> bad_ranges{0}, calls{0};
+    std::atomic<std::size_t> biggest{0};
+    exec.parallel_for(count, [&](std::size_t b, std::size_t e) {
+        ++calls;
+        if (!(b < e && e <= count)) {
+            ++bad_ranges;
+            return;
+        }
+        std::size_t prev = biggest.load();
+        while (e - b > prev && !biggest.compare_exchange_weak(prev, e - b)) {
+        }
+        for (std::size_t i = b; i < e; ++i) ++hits[i];
+    });
+    CHECK(bad_ranges == 0);
+    int not_once = 0;
+    for (std::size_t i = 0; i < count; ++i) not_once += hits[i] == 1 ? 0 : 1;
+    CHECK(not_once == 0);
+    CHECK(hits[count] == 0);
+    if (count == 0) CHECK(calls == 0);
+    if (max_chunk) CHECK(biggest <= max_chunk);
+}
+
+}  // namespace
+
+static_assert(aaf::executor<aaf::sequential_executor>);
+static_assert(aaf::executor<const aaf::sequential_executor>);
+static_assert(aaf::executor<aaf::thread_pool>);
+static_assert(aaf::executor<user_executor>);
+static_assert(!aaf::executor<int>);
+static_assert(!aaf::executor<no_parallel_for>);
+static_assert(!aaf::executor<wrong_signature>);
+
+TEST_CASE("executor: every index exactly once, for many counts and grains", "[executor]") {
+    const std::size_t counts[] = {0, 1, 2, 7, 64, 1000};
+    aaf::sequential_executor seq;
+    user_executor user;
+    aaf::thread_pool p1(1), p2(2), p3(3), p3g4(3, 4), p2g1000(2, 1000), p0(0), p3g0(3, 0);
+    CHECK(p1.size() == 1);
+    CHECK(p2.size() == 2);
+    CHECK(p3.size() == 3);
+    CHECK(p0.size() >= 1);
+    for (std::size_t n : counts) {
+        check_coverage(seq, n);
+        check_coverage(user, n, 1);
+        check_coverage(p1, n, 1);
+        check_coverage(p2, n, 1);
+        check_coverage(p3, n, 1);
+        check_coverage(p3g4, n, 4);
+        check_coverage(p2g1000, n, 1000);
+        check_coverage(p0, n, 1);
+        check_coverage(p3g0, n, 1);  // grain 0 means 1
+    }
+}
+
+TEST_CASE("executor: thread_pool(1) runs everything on the calling thread", "[executor]") {
+    aaf::thread_pool pool(1);
+    const auto me = std::this_thread::get_id();
+    bool elsewhere = false;
+    pool.parallel_for(50, [&](std::size_t, std::size_t) { elsewhere = elsewhere || std::this_thread::get_id() != me; });
+    CHECK_FALSE(elsewhere);
+}
+
+TEST_CASE("executor: exceptions reach the caller and the pool stays usable", "[executor]") {
+    SECTION("sequential") {
+        aaf::sequential_executor seq;
+        CHECK_THROWS_WITH(seq.parallel_for(10, [](std::size_t, std::size_t) { throw std::runtime_error("boom"); }), "boom");
+    }
+    for (std::size_t threads : {1u, 2u, 3u}) {
+        CAPTURE(threads);
+        aaf::thread_pool pool(threads);
+        // One chunk throws: that exception, with its type and message, reaches the caller.
+        CHECK_THROWS_WITH(pool.parallel_for(100,
+                                            [](std::size_t b, std::size_t e) {
+                                                if (b <= 37 && 37 < e) throw std::runtime_error("boom at 37");
+                                            }),
+                          "boom at 37");
+        check_coverage(pool, 1000, 1);
+        // Every chunk throws (on every thread): exactly one exception comes out, of a non-std type.
+        int caught = 0;
+        try {
+            pool.parallel_for(500, [](std::size_t b, std::size_t) { throw my_error{static_cast<int>(b)}; });
+        } catch (const my_error& e) {
+            ++caught;
+            CHECK(e.code >= 0);
+            CHECK(e.code < 500);
+        }
+        CHECK(caught == 1);
+        check_coverage(pool, 7, 1);
+        check_coverage(pool, 1000, 1);
+        // Throwing again and again does not wedge it.
+        for (int i = 0; i < 20; ++i)
+            CHECK_THROWS_AS(pool.parallel_for(30, [](std::size_t, std::size_t) { throw std::logic_error("x"); }),
+                            std::logic_error);
+        check_coverage(pool, 64, 1);
+    }
+}
+
+TEST_CASE("executor: a pool is reusable for many calls, also from several threads", "[executor]") {
+    aaf::thread_pool pool(3);
+    std::atomic<long> total{0};
+    for (int call = 0; call < 200; ++call)
+        pool.parallel_for(static_cast<std::size_t>(call % 17), [&](std::size_t b, std::size_t e) {
+            total += static_cast<long>(e - b);
+        });
+    long expected = 0;
+    for (int call = 0; call < 200; ++call) expected += call % 17;
+    CHECK(total == expected);
+
+    // Concurrent callers are serialised, and each still sees its own range covered once.
+    std::atomic<int> failures{0};
+    const auto caller = [&](std::size_t n) {
+        for (int call = 0; call < 50; ++call) {
+            std::vector<std::atomic<int>> hits(n);
+            pool.parallel_for(n, [&](std::size_t b, std::size_t e) {
+                for (std::size_t i = b; i < e; ++i) ++hits[i];
+            });
+            for (auto& h : hits)
+                if (h != 1) ++failures;
+        }
+    };
+    std::thread a(caller, 31), b(caller, 57);
+    caller(13);
+    a.join();
+    b.join();
+    CHECK(failures == 0);
+}
+
+TEST_CASE("executor: pools are created and destroyed cleanly", "[executor]") {
+    for (int i = 0; i < 20; ++i) {
+        aaf::thread_pool pool(static_cast<std::size_t>(1 + i % 4));
+        if (i % 2) check_coverage(pool, static_cast<std::size_t>(i), 1);
+    }
+    SUCCEED("no deadlock at construction or destruction");
+}
