@@ -13,7 +13,7 @@
 // * occluder at the light   → slopes capped at max_slope by slopes(), everything finite;
 // * point light, σ = 0      → Ω* pixel-limited; n = 1 (a point light has no penumbra: one sample is exact);
 // * zero pixel size, d = 0  → pixel bound +∞, Ω* light-limited; n uses d·Ω* → 0;
-// * NaN inputs              → treated as "no occluder".
+// * NaN inputs              → treated as "no occluder" (NaN s1, s2, σ or d, and a NaN Ω* given to filter_width).
 
 #include <algorithm>
 #include <cmath>
@@ -35,6 +35,12 @@ template <class T>
 [[nodiscard]] constexpr T safe_div(T a, T b) noexcept {
     if (b > T(0)) return a / b;
     return a > T(0) ? inf<T> : T(0);
+}
+
+/// The "NaN inputs → no occluder" rule of the header comment: slopes, σ and d must all be non-NaN.
+template <class T>
+[[nodiscard]] constexpr bool formula_inputs_valid(const slope_pair<T>& s, T sigma, T pixel_size) noexcept {
+    return s.has_occluder() && !std::isnan(s.s1) && !std::isnan(s.s2) && !std::isnan(sigma) && !std::isnan(pixel_size);
 }
 }  // namespace detail
 
@@ -73,7 +79,7 @@ template <class T>
 template <class T>
 [[nodiscard]] constexpr T filter_bandwidth(const slope_pair<T>& s, T sigma, T pixel_size,
                                            const formula_settings<T>& f) noexcept {
-    if (!s.has_occluder() || std::isnan(s.s1) || std::isnan(s.s2)) return detail::inf<T>;
+    if (!detail::formula_inputs_valid(s, sigma, pixel_size)) return detail::inf<T>;
     const T light = light_limited_bandwidth(sigma, s.s2);
     const T pixel = receiver_bandlimit(pixel_size, s.s2, f.alpha);
     return f.form == formula_form::paper ? f.mu * std::min(light, pixel) : std::min(f.mu * light, pixel);
@@ -83,6 +89,7 @@ template <class T>
 /// parallel to the light. 0 for Ω* = +∞ (do not filter).
 template <class T>
 [[nodiscard]] constexpr T filter_width(T omega, T k) noexcept {
+    if (std::isnan(k * omega)) return T(0);  // a NaN input means "no occluder": do not filter
     return detail::safe_div(T(1), k * omega);
 }
 
@@ -97,7 +104,7 @@ template <class T>
 template <class T>
 [[nodiscard]] constexpr T sample_count(const slope_pair<T>& s, T sigma, T pixel_size, const formula_settings<T>& f) noexcept {
     using detail::safe_div;
-    if (!s.has_occluder() || std::isnan(s.s1) || std::isnan(s.s2)) return T(0);
+    if (!detail::formula_inputs_valid(s, sigma, pixel_size)) return T(0);
     if (!(sigma > T(0))) return T(1);
     const T pixel_term = f.alpha / (T(1) + s.s2);  // α (1 + s2)^-1 = d Ω_x^max
     // s1/s2 → 1 along s1 = s2 → 0: a single contact depth has a one-line spectrum.
