@@ -39,11 +39,12 @@ struct occlusion_stats {
 
     /// Records one sample of weight `weight` (see light_weighting) for a receiver at distance `d1` from the
     /// light plane, traced along a segment of length `length`, with occluders `hit`. A sample whose
-    /// weight or distances are not finite is counted in `samples` but contributes nothing else.
+    /// weight, d1 or length is not finite, or whose hit has a NaN distance (a failed sample, tracer.hpp),
+    /// is counted in `samples` but contributes nothing else.
     constexpr void add_sample(T weight, T receiver_d1, T length, const occluder_span<T>& hit) noexcept {
         ++samples;
         if (!(weight > T(0)) || !std::isfinite(weight) || !std::isfinite(receiver_d1) || !(length > T(0)) ||
-            !std::isfinite(length) || std::isnan(hit.nearest))
+            !std::isfinite(length) || std::isnan(hit.nearest) || std::isnan(hit.farthest))
             return;
         d1 = receiver_d1;
         total_weight += weight;

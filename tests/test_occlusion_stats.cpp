@@ -1,0 +1,350 @@
+// SPDX-License-Identifier: MIT
+// occlusion_stats: the per-pixel accumulation of weighted visibility and occluder distances
+// (FORMULAS.md §1.2, §1.3, §1.12, §1.16), merge(), slopes(), and exact distances in the analytic scene.
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include <glm/geometric.hpp>
+
+#include <aaf/area_light.hpp>
+#include <aaf/occlusion_stats.hpp>
+#include <aaf/sampler.hpp>
+#include <aaf/tracer.hpp>
+
+#include "support/analytic_scene.hpp"
+
+namespace {
+
+template <class T>
+aaf::occluder_span<T> span(T nearest, T farthest) {
+    aaf::occluder_span<T> s;
+    s.nearest = nearest;
+    s.farthest = farthest;
+    return s;
+}
+
+template <class T>
+bool same(const aaf::occlusion_stats<T>& a, const aaf::occlusion_stats<T>& b) {
+    const auto eq = [](T x, T y) { return x == y || (std::isnan(x) && std::isnan(y)); };
+    return eq(a.visible_weight, b.visible_weight) && eq(a.total_weight, b.total_weight) && a.samples == b.samples &&
+           a.occluded == b.occluded && eq(a.d1, b.d1) && eq(a.d2min, b.d2min) && eq(a.d2max, b.d2max);
+}
+
+template <class T>
+struct sample {
+    T weight, d1, length;
+    aaf::occluder_span<T> hit;
+};
+
+}  // namespace
+
+TEMPLATE_TEST_CASE("add_sample arithmetic", "[stats]", float, double) {
+    using T = TestType;
+    aaf::occlusion_stats<T> s;
+    CHECK(s.samples == 0u);
+    CHECK_FALSE(s.has_light());
+    CHECK_FALSE(s.has_occluder());
+    // Receiver at d1 = 4 from the light plane, segment of length 8, hits at t = 2 and t = 6:
+    // d2 = d1·(L − t)/L → nearest (t = 2) gives d2max = 4·6/8 = 3, farthest (t = 6) gives d2min = 4·2/8 = 1.
+    s.add_sample(T(2), T(4), T(8), span<T>(T(2), T(6)));
+    CHECK(s.samples == 1u);
+    CHECK(s.occluded == 1u);
+    CHECK(s.total_weight == T(2));
+    CHECK(s.visible_weight == T(0));
+    CHECK(s.d1 == T(4));
+    CHECK(s.d2max == T(3));
+    CHECK(s.d2min == T(1));
+    CHECK(s.visibility() == T(0));
+    // A miss of weight 1.
+    s.add_sample(T(1), T(4), T(8), aaf::occluder_span<T>{});
+    CHECK(s.samples == 2u);
+    CHECK(s.occluded == 1u);
+    CHECK(s.total_weight == T(3));
+    CHECK(s.visible_weight == T(1));
+    CHECK(s.visibility() == Approx(1.0 / 3.0));
+    // A single hit (nearest == farthest) at t = 4 on a segment of length 10: d2 = 4·6/10 = 2.4, inside [1, 3].
+    s.add_sample(T(0.5), T(4), T(10), span<T>(T(4), T(4)));
+    CHECK(s.d2max == T(3));
+    CHECK(s.d2min == T(1));
+    CHECK(s.occluded == 2u);
+    CHECK(s.total_weight == T(3.5));
+    // A hit close to the receiver widens d2max; one close to the light lowers d2min.
+    s.add_sample(T(1), T(4), T(8), span<T>(T(1), T(1)));   // d2 = 4·7/8 = 3.5
+    s.add_sample(T(1), T(4), T(8), span<T>(T(7), T(7)));   // d2 = 4·1/8 = 0.5
+    CHECK(s.d2max == T(3.5));
+    CHECK(s.d2min == T(0.5));
+    CHECK(s.has_occluder());
+    CHECK(s.has_light());
+    // slopes: s1 = d1/d2min − 1 = 7, s2 = d1/d2max − 1 = 4/3.5 − 1 = 1/7.
+    const auto sl = aaf::slopes(s);
+    CHECK(sl.s1 == Approx(7.0));
+    CHECK(sl.s2 == Approx(1.0 / 7.0));
+    // Each sample's slope is t/(L − t): here the extremes are 7/1 and 1/7.
+}
+
+TEMPLATE_TEST_CASE("no occluder and no light", "[stats]", float, double) {
+    using T = TestType;
+    aaf::occlusion_stats<T> lit;
+    for (int i = 0; i < 9; ++i) lit.add_sample(T(0.25) + T(i), T(3), T(3.5), aaf::occluder_span<T>{});
+    CHECK(lit.visibility() == T(1));
+    CHECK(lit.has_light());
+    CHECK_FALSE(lit.has_occluder());
+    CHECK(lit.occluded == 0u);
+    CHECK(lit.samples == 9u);
+    const auto s = aaf::slopes(lit);
+    CHECK(s.s1 == T(0));
+    CHECK(s.s2 == std::numeric_limits<T>::infinity());
+    CHECK_FALSE(s.has_occluder());
+
+    // Every light point below the horizon: the samples are drawn (weight 0) but nothing counts.
+    aaf::occlusion_stats<T> dark;
+    for (int i = 0; i < 9; ++i) dark.add_sample(T(0), T(3), T(0), aaf::occluder_span<T>{});
+    CHECK(dark.samples == 9u);
+    CHECK(std::isnan(dark.visibility()));
+    CHECK_FALSE(dark.has_light());
+    CHECK_FALSE(dark.has_occluder());
+    CHECK_FALSE(aaf::slopes(dark).has_occluder());
+}
+
+TEMPLATE_TEST_CASE("failed and invalid samples are counted but contribute nothing", "[stats]", float, double) {
+    using T = TestType;
+    const T nan = std::numeric_limits<T>::quiet_NaN();
+    const T inf = std::numeric_limits<T>::infinity();
+    aaf::occlusion_stats<T> base;
+    base.add_sample(T(1), T(4), T(8), span<T>(T(2), T(6)));
+    base.add_sample(T(1), T(4), T(8), aaf::occluder_span<T>{});
+    const std::vector<sample<T>> bad = {
+        {T(1), T(4), T(8), span<T>(nan, nan)},   // failed sample (tracer.hpp: NaN = failed)
+        {T(1), T(4), T(8), span<T>(nan, T(5))},
+        {T(1), T(4), T(8), span<T>(T(5), nan)},  // NaN anywhere in the span
+        {T(1), T(4), T(8), span<T>(nan, -inf)},
+        {T(0), T(4), T(8), span<T>(T(2), T(6))},     // zero weight
+        {T(-1), T(4), T(8), span<T>(T(2), T(6))},    // negative weight
+        {T(-1), T(4), T(8), aaf::occluder_span<T>{}},
+        {nan, T(4), T(8), aaf::occluder_span<T>{}},  // NaN weight
+        {inf, T(4), T(8), aaf::occluder_span<T>{}},  // infinite weight
+        {T(1), nan, T(8), span<T>(T(2), T(6))},      // NaN d1
+        {T(1), inf, T(8), aaf::occluder_span<T>{}},  // infinite d1
+        {T(1), T(4), T(0), aaf::occluder_span<T>{}},  // zero length
+        {T(1), T(4), T(-8), span<T>(T(2), T(6))},    // negative length
+        {T(1), T(4), nan, span<T>(T(2), T(6))},      // NaN length
+        {T(1), T(4), inf, aaf::occluder_span<T>{}},  // infinite length
+    };
+    for (std::size_t i = 0; i < bad.size(); ++i) {
+        INFO("case " << i);
+        aaf::occlusion_stats<T> s = base;
+        s.add_sample(bad[i].weight, bad[i].d1, bad[i].length, bad[i].hit);
+        aaf::occlusion_stats<T> expected = base;
+        expected.samples += 1;
+        CHECK(same(s, expected));
+    }
+}
+
+TEMPLATE_TEST_CASE("hit distances are clamped into [0, L]", "[stats]", float, double) {
+    using T = TestType;
+    const T inf = std::numeric_limits<T>::infinity();
+    struct clamp_case {
+        aaf::occluder_span<T> hit;
+        T d2max, d2min;
+    };
+    // d1 = 4, L = 8.
+    const clamp_case cases[] = {
+        {span<T>(T(-1), T(2)), T(4), T(3)},    // t < 0 → contact: d2max = d1
+        {span<T>(T(2), T(12)), T(3), T(0)},    // t > L → at the light: d2min = 0
+        {span<T>(T(-3), T(-1)), T(4), T(4)},   // both behind the origin → contact
+        {span<T>(T(10), T(12)), T(0), T(0)},   // both beyond the light → at the light
+        {span<T>(-inf, inf), T(4), T(0)},
+        {span<T>(T(0), T(8)), T(4), T(0)},
+    };
+    for (const clamp_case& c : cases) {
+        INFO("hit " << c.hit.nearest << " .. " << c.hit.farthest);
+        aaf::occlusion_stats<T> s;
+        s.add_sample(T(1), T(4), T(8), c.hit);
+        CHECK(s.occluded == 1u);
+        CHECK(s.d2max == c.d2max);
+        CHECK(s.d2min == c.d2min);
+        CHECK(s.d2min <= s.d2max);
+        CHECK(s.d2max <= s.d1);
+        const auto sl = aaf::slopes(s);
+        CHECK(std::isfinite(sl.s1));
+        CHECK(sl.s1 >= sl.s2);
+        CHECK(sl.s2 >= T(0));
+    }
+}
+
+TEMPLATE_TEST_CASE("merge is associative, commutative and equals one record of all samples", "[stats]", float, double) {
+    using T = TestType;
+    std::mt19937 rng(20121128u);
+    std::uniform_real_distribution<double> u01(0.0, 1.0);
+    for (int trial = 0; trial < 50; ++trial) {
+        const T d1 = static_cast<T>(1 + 4 * u01(rng));
+        std::vector<sample<T>> all;
+        const int count = 1 + static_cast<int>(u01(rng) * 40);
+        for (int i = 0; i < count; ++i) {
+            const T length = static_cast<T>(static_cast<double>(d1) * (1 + u01(rng)));
+            const T weight = u01(rng) < 0.1 ? T(0) : static_cast<T>(u01(rng));
+            aaf::occluder_span<T> hit{};
+            if (u01(rng) < 0.5) {
+                const T a = static_cast<T>(u01(rng) * static_cast<double>(length));
+                const T b = static_cast<T>(u01(rng) * static_cast<double>(length));
+                hit = span<T>(std::min(a, b), std::max(a, b));
+            }
+            all.push_back({weight, d1, length, hit});
+        }
+        // Split into three consecutive parts A, B, C (possibly empty).
+        const std::size_t i1 = static_cast<std::size_t>(u01(rng) * static_cast<double>(all.size() + 1));
+        const std::size_t i2 = i1 + static_cast<std::size_t>(u01(rng) * static_cast<double>(all.size() - i1 + 1));
+        aaf::occlusion_stats<T> one, a, b, c;
+        for (std::size_t i = 0; i < all.size(); ++i) {
+            const sample<T>& x = all[i];
+            one.add_sample(x.weight, x.d1, x.length, x.hit);
+            (i < i1 ? a : i < i2 ? b : c).add_sample(x.weight, x.d1, x.length, x.hit);
+        }
+        const auto left = aaf::merge(aaf::merge(a, b), c);
+        const auto right = aaf::merge(a, aaf::merge(b, c));
+        const auto swapped = aaf::merge(c, aaf::merge(b, a));
+        for (const auto* m : {&left, &right, &swapped}) {
+            INFO("trial " << trial);
+            CHECK(m->samples == one.samples);
+            CHECK(m->occluded == one.occluded);
+            CHECK(m->d2min == one.d2min);  // min / max are exact
+            CHECK(m->d2max == one.d2max);
+            CHECK(m->total_weight == Approx(one.total_weight).epsilon(1e-5).margin(1e-6));
+            CHECK(m->visible_weight == Approx(one.visible_weight).epsilon(1e-5).margin(1e-6));
+            if (one.has_light()) {
+                CHECK(m->d1 == one.d1);
+                CHECK(m->visibility() == Approx(one.visibility()).epsilon(1e-5).margin(1e-6));
+            }
+            CHECK(m->has_occluder() == one.has_occluder());
+        }
+        CHECK(same(aaf::merge(a, b), aaf::merge(b, a)));  // two-record merge: IEEE addition commutes exactly
+        // The empty record is the identity.
+        CHECK(same(aaf::merge(one, aaf::occlusion_stats<T>{}), one));
+        CHECK(same(aaf::merge(aaf::occlusion_stats<T>{}, one), one));
+    }
+}
+
+TEMPLATE_TEST_CASE("slopes() follows the paper and its guards", "[stats]", float, double) {
+    using T = TestType;
+    const auto record = [](T d1, T d2min, T d2max) {
+        aaf::occlusion_stats<T> s;
+        s.samples = s.occluded = 1;
+        s.total_weight = T(1);
+        s.d1 = d1;
+        s.d2min = d2min;
+        s.d2max = d2max;
+        return s;
+    };
+    // s1 = d1/d2min − 1, s2 = d1/d2max − 1 (FORMULAS.md §1.2).
+    auto s = aaf::slopes(record(T(6), T(2), T(4)));
+    CHECK(s.s1 == Approx(2.0));
+    CHECK(s.s2 == Approx(0.5));
+    CHECK(s.has_occluder());
+    // Contact: d2max = d1 → s2 = 0.
+    s = aaf::slopes(record(T(6), T(2), T(6)));
+    CHECK(s.s2 == T(0));
+    // Occluder at the light: capped at max_slope.
+    s = aaf::slopes(record(T(6), T(0), T(3)), T(50));
+    CHECK(s.s1 == Approx(50.0));
+    CHECK(s.s2 == Approx(1.0));
+    s = aaf::slopes(record(T(6), T(0), T(0)), T(50));
+    CHECK(s.s1 == Approx(50.0));
+    CHECK(s.s2 == Approx(50.0));
+    // Receiver on the light plane or a non-finite d1: no slopes.
+    CHECK_FALSE(aaf::slopes(record(T(0), T(0), T(0))).has_occluder());
+    CHECK_FALSE(aaf::slopes(record(std::numeric_limits<T>::infinity(), T(1), T(2))).has_occluder());
+    CHECK_FALSE(aaf::slopes(record(std::numeric_limits<T>::quiet_NaN(), T(1), T(2))).has_occluder());
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The analytic scene: a receiver point on y = 0 under occluders at heights h, light at height H.
+
+namespace {
+
+/// Traces `n` stratified light samples from p (no origin offset: the segment starts exactly at p) and
+/// returns one record per occluded sample plus the pixel's record.
+template <class T>
+struct traced {
+    std::vector<aaf::occlusion_stats<T>> occluded_samples;
+    aaf::occlusion_stats<T> pixel;
+};
+
+template <class T>
+traced<T> trace_point(const aaf_test::analytic_scene<T>& sc, const glm::vec<3, T>& p, std::uint32_t n) {
+    const aaf::area_light<T> light = sc.area_light();
+    std::vector<glm::vec<2, T>> uv(n);
+    aaf::generate_samples<T>(aaf::sample_pattern::stratified, aaf::sample_key{3, 5, 0, 0, 0}, uv);
+    const aaf_test::span_tracer<T> tracer{&sc};
+    traced<T> out;
+    const T d1 = light.plane_distance(p);
+    for (const auto& q : uv) {
+        const glm::vec<3, T> y = light.point(q.x, q.y);
+        const glm::vec<3, T> to = y - p;
+        const T len = glm::length(to);
+        const aaf::shadow_segment<T> seg{p, to / len, len};
+        const aaf::occluder_span<T> hit = aaf::detail::trace_one<T>(tracer, seg);
+        out.pixel.add_sample(T(1), d1, len, hit);
+        if (hit.hit()) {
+            aaf::occlusion_stats<T> one;
+            one.add_sample(T(1), d1, len, hit);
+            out.occluded_samples.push_back(one);
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
+TEMPLATE_TEST_CASE("analytic scene: one occluder gives d2 = H - h exactly", "[stats][analytic]", float, double) {
+    using T = TestType;
+    const T eps = std::numeric_limits<T>::epsilon();
+    for (T h : {T(0.5), T(1), T(2.25)}) {
+        INFO("occluder height " << h);
+        aaf_test::analytic_scene<T> sc;  // light at H = 3
+        sc.occluders = {{T(-0.6), T(0.6), T(-0.3), T(0.3), h}};
+        const T H = sc.light.y;
+        // Points under the occluder and in its penumbra.
+        for (const glm::vec<3, T>& p : {glm::vec<3, T>(0, 0, 0), glm::vec<3, T>(T(0.1), 0, T(0.5)),
+                                         glm::vec<3, T>(T(-0.7), 0, T(0.2)), glm::vec<3, T>(T(0.3), 0, T(-0.4))}) {
+            const traced<T> t = trace_point(sc, p, 64);
+            REQUIRE_FALSE(t.occluded_samples.empty());
+            CHECK(t.pixel.d1 == H);
+            // Exact up to the rounding of a few float operations (the measured worst case is 2 ulp).
+            for (const auto& one : t.occluded_samples) {
+                CHECK(one.d1 == H);
+                CHECK(std::abs(static_cast<double>(one.d2max) - static_cast<double>(H - h)) <=
+                      4 * static_cast<double>(eps) * static_cast<double>(H - h));
+                CHECK(std::abs(static_cast<double>(one.d2min) - static_cast<double>(H - h)) <=
+                      4 * static_cast<double>(eps) * static_cast<double>(H - h));
+            }
+            const auto sl = aaf::slopes(t.pixel);
+            const double expected = static_cast<double>(H) / static_cast<double>(H - h) - 1;
+            CHECK(static_cast<double>(sl.s1) == Approx(expected).epsilon(32 * static_cast<double>(eps)));
+            CHECK(static_cast<double>(sl.s2) == Approx(expected).epsilon(32 * static_cast<double>(eps)));
+            // The visible fraction is estimated (stratified, 64 samples) close to the exact one.
+            CHECK(static_cast<double>(t.pixel.visibility()) == Approx(sc.exact_visibility(p)).margin(0.05));
+        }
+    }
+}
+
+TEMPLATE_TEST_CASE("analytic scene: two occluders give d2min and d2max of the two depths", "[stats][analytic]", float, double) {
+    using T = TestType;
+    const T eps = std::numeric_limits<T>::epsilon();
+    aaf_test::analytic_scene<T> sc;  // light at H = 3
+    sc.occluders = {{T(-0.6), T(0.6), T(-0.3), T(0.3), T(1)}, {T(-0.2), T(1.0), T(-0.1), T(0.6), T(2)}};
+    const glm::vec<3, T> p(T(0.2), 0, T(0.1));
+    const traced<T> t = trace_point(sc, p, 100);
+    // d2max from the low occluder (H − 1 = 2), d2min from the high one (H − 2 = 1).
+    CHECK(std::abs(static_cast<double>(t.pixel.d2max) - 2.0) <= 4 * static_cast<double>(eps) * 2);
+    CHECK(std::abs(static_cast<double>(t.pixel.d2min) - 1.0) <= 4 * static_cast<double>(eps) * 1);
+    const auto sl = aaf::slopes(t.pixel);
+    CHECK(static_cast<double>(sl.s1) == Approx(3.0 / 1.0 - 1).epsilon(32 * static_cast<double>(eps)));
+    CHECK(static_cast<double>(sl.s2) == Approx(3.0 / 2.0 - 1).epsilon(32 * static_cast<double>(eps)));
+    CHECK(static_cast<double>(t.pixel.visibility()) == Approx(sc.exact_visibility(p)).margin(0.05));
+}
