@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <span>
 
 #include <glm/vec2.hpp>
@@ -118,6 +119,23 @@ struct strata_layout {
     return s;
 }
 
+/// Moves x by whole ulps into [lo/m, hi/m) (the sign of an fma is exact). Rounding of a jittered coordinate
+/// or of its row start can otherwise land a point exactly on the next stratum's edge (about
+/// 4 points in 10^7 in float). Only called near an edge: see `near_stratum_edge`.
+template <class T>
+[[nodiscard]] T nudge_into_stratum(T x, T m, T lo, T hi) noexcept {
+    while (std::fma(x, m, -lo) < T(0)) x = std::nextafter(x, T(1));
+    while (std::fma(x, m, -hi) >= T(0)) x = std::nextafter(x, T(0));
+    return x;
+}
+
+/// Cheap rounded test: x·m lies within `margin` (many ulps) of [lo, hi)'s ends, so rounding may have crossed one.
+template <class T>
+[[nodiscard]] constexpr bool near_stratum_edge(T x, T m, T lo, T hi, T margin) noexcept {
+    const T t = x * m;
+    return !(t > lo + margin && t < hi - margin);
+}
+
 }  // namespace detail
 
 /// Generates the light samples of one pixel in [0, 1)², to be mapped onto the light by
@@ -144,11 +162,16 @@ void generate_samples(sample_pattern pattern, const sample_key& key, std::span<g
     }
     const detail::strata_layout s = detail::make_strata(n);
     std::uint32_t i = 0;
-    T row_start = 0;
     for (std::uint32_t r = 0; r < s.rows; ++r) {
         const std::uint32_t cols = s.base_cols + (r < s.rows_with_extra ? 1U : 0U);
         const T row_height = static_cast<T>(cols) / static_cast<T>(n);
         const T inv_cols = T(1) / static_cast<T>(cols);  // multiply in the loop, divide once per row
+        // The row spans [row_first/n, row_end/n); cell c spans [c/cols, (c + 1)/cols).
+        const T row_first = static_cast<T>(i), row_end = static_cast<T>(i + cols), n_t = static_cast<T>(n);
+        const T cols_t = static_cast<T>(cols);
+        const T u_margin = T(16) * std::numeric_limits<T>::epsilon() * cols_t;
+        const T v_margin = T(16) * std::numeric_limits<T>::epsilon() * n_t;
+        const T row_start = row_first / n_t;  // not accumulated: its error stays within a few ulps for any n
         for (std::uint32_t c = 0; c < cols; ++c, ++i) {
             T jx = T(0.5), jy = T(0.5);
             if (pattern == sample_pattern::stratified) {
@@ -158,12 +181,14 @@ void generate_samples(sample_pattern pattern, const sample_key& key, std::span<g
             }
             T u = (static_cast<T>(c) + jx) * inv_cols;
             T v = row_start + jy * row_height;
-            // Keep the half-open square even after rounding (a v of exactly 1 would sample the far edge twice).
-            if (!(u < T(1))) u = std::nextafter(T(1), T(0));
-            if (!(v < T(1))) v = std::nextafter(T(1), T(0));
+            // Keep each point in its own half-open stratum (hence in [0, 1)²) even after rounding.
+            const T c_t = static_cast<T>(c);
+            if (detail::near_stratum_edge(u, cols_t, c_t, c_t + T(1), u_margin))
+                u = detail::nudge_into_stratum(u, cols_t, c_t, c_t + T(1));
+            if (detail::near_stratum_edge(v, n_t, row_first, row_end, v_margin))
+                v = detail::nudge_into_stratum(v, n_t, row_first, row_end);
             out[i] = {u, v};
         }
-        row_start += row_height;
     }
 }
 
