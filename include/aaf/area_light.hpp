@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <numbers>
+#include <type_traits>
 
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
@@ -92,38 +93,42 @@ struct area_light {
 /// (W·sr⁻¹·m⁻² per unit of your choice): E = radiance · π · F, with F the point-to-polygon form factor
 /// (Lambert's contour formula), after clipping the light to the receiver's upper hemisphere.
 /// Returns 0 behind a one-sided light or when the light is wholly below the horizon.
+/// Computed in at least double precision: Lambert's sum adds edge terms of the size of the light's angular
+/// extent to obtain its far smaller projected solid angle, so in float a light subtending 10^-3 rad would
+/// lose about 2 % to cancellation.
 template <class T>
 [[nodiscard]] T unshadowed_irradiance(const area_light<T>& light, const glm::vec<3, T>& p, const glm::vec<3, T>& n,
                                       T radiance = T(1)) noexcept {
-    using vec3 = glm::vec<3, T>;
+    using D = std::conditional_t<(sizeof(T) < sizeof(double)), double, T>;
+    using vec3 = glm::vec<3, D>;
     if (!light.emits_towards(p)) return T(0);
+    const vec3 corner(light.corner), edge_u(light.edge_u), edge_v(light.edge_v), pd(p), nd(n);
     // Light polygon relative to p, clipped against the plane dot(n, x) >= 0 (Sutherland–Hodgman, ≤ 5 vertices).
-    const std::array<vec3, 4> quad = {light.corner - p, light.corner + light.edge_u - p,
-                                      light.corner + light.edge_u + light.edge_v - p, light.corner + light.edge_v - p};
+    const std::array<vec3, 4> quad = {corner - pd, corner + edge_u - pd, corner + edge_u + edge_v - pd, corner + edge_v - pd};
     std::array<vec3, 8> poly{};
     std::size_t count = 0;
     for (std::size_t i = 0; i < 4; ++i) {
         const vec3& a = quad[i];
         const vec3& b = quad[(i + 1) % 4];
-        const T da = glm::dot(n, a);
-        const T db = glm::dot(n, b);
-        if (da >= T(0)) poly[count++] = a;
-        if ((da >= T(0)) != (db >= T(0))) poly[count++] = a + (b - a) * (da / (da - db));
+        const D da = glm::dot(nd, a);
+        const D db = glm::dot(nd, b);
+        if (da >= D(0)) poly[count++] = a;
+        if ((da >= D(0)) != (db >= D(0))) poly[count++] = a + (b - a) * (da / (da - db));
     }
     if (count < 3) return T(0);
     // Lambert: F = 1/(2π) Σ θ_i n·Γ_i with Γ_i the unit normal of the plane through p and edge i.
-    T sum = 0;
+    D sum = 0;
     for (std::size_t i = 0; i < count; ++i) {
         const vec3 a = glm::normalize(poly[i]);
         const vec3 b = glm::normalize(poly[(i + 1) % count]);
         const vec3 c = glm::cross(a, b);
-        const T sin_theta = glm::length(c);
-        if (!(sin_theta > T(0))) continue;
-        const T theta = std::atan2(sin_theta, glm::dot(a, b));
-        sum += theta * glm::dot(n, c / sin_theta);
+        const D sin_theta = glm::length(c);
+        if (!(sin_theta > D(0))) continue;
+        const D theta = std::atan2(sin_theta, glm::dot(a, b));
+        sum += theta * glm::dot(nd, c / sin_theta);
     }
     // The sign depends on the polygon's winding as seen from p; irradiance is its magnitude.
-    return radiance * std::abs(sum) * T(0.5);
+    return static_cast<T>(static_cast<D>(radiance) * std::abs(sum) * D(0.5));
 }
 
 }  // namespace v0
