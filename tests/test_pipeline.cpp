@@ -322,3 +322,10 @@ TEST_CASE("the pipeline runs in double precision too", "[pipeline][double]") {
     aaf::render_frame(gb.view(), sc.area_light(), span_tracer<double>{&sc}, {v.view()}, ws);
     CHECK(rmse(v, sc.exact_image()) < 0.05);
 }
+
+TEST_CASE("the standalone filter deduces its type from the output, so owning images can be passed as they are",
+          "[pipeline][api]") {
+    aaf::image<float> visibility(8, 8, 0.5f), beta(8, 8, 0.02f), pixel(8, 8, 0.01f), out(8, 8);
+    aaf::filter_visibility(visibility, beta, pixel, out.view());  // no <float>, no cview()
+    CHECK(out(4, 4) == Approx(0.5f));
+}

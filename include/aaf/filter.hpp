@@ -167,11 +167,15 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
 ///   valid neighbours' average (or stays as it was if it has none).
 /// * `output` may alias neither `visibility` nor `scratch`. All views must have the same size.
 /// Throws aaf::invalid_argument (before touching `output`) on mismatched sizes or invalid settings.
+/// T is deduced from `output` only, so mutable views and `image<T>`s convert to the read-only inputs.
 template <class T, class G = guides<>, class Exec = sequential_executor>
-void filter_visibility(const_image_view<T> visibility, const_image_view<T> filter_width, const_image_view<T> pixel_size,
-                       image_view<T> output, image_view<T> scratch, const G& g = {}, const filter_settings<T>& s = {},
-                       const glm::vec<3, T>& light_normal = {0, 1, 0}, Exec&& exec = {}) {
-    static_assert(detail::is_guides<G>::value, "aaf::filter_visibility: `g` must be an aaf::guides<...>");
+    requires detail::is_guides<G>::value
+void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
+                       std::type_identity_t<const_image_view<T>> filter_width,
+                       std::type_identity_t<const_image_view<T>> pixel_size, image_view<T> output,
+                       std::type_identity_t<image_view<T>> scratch, const G& g = {},
+                       const std::type_identity_t<filter_settings<T>>& s = {},
+                       const std::type_identity_t<glm::vec<3, T>>& light_normal = {0, 1, 0}, Exec&& exec = {}) {
     constexpr const char* fn = "filter_visibility";
     detail::require_nonempty(fn, "visibility", visibility);
     const std::size_t w = visibility.width(), h = visibility.height();
@@ -210,9 +214,12 @@ void filter_visibility(const_image_view<T> visibility, const_image_view<T> filte
 
 /// Convenience overload that allocates its own scratch image.
 template <class T, class G = guides<>, class Exec = sequential_executor>
-void filter_visibility(const_image_view<T> visibility, const_image_view<T> filter_width, const_image_view<T> pixel_size,
-                       image_view<T> output, const G& g = {}, const filter_settings<T>& s = {},
-                       const glm::vec<3, T>& light_normal = {0, 1, 0}, Exec&& exec = {}) {
+    requires detail::is_guides<G>::value
+void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
+                       std::type_identity_t<const_image_view<T>> filter_width,
+                       std::type_identity_t<const_image_view<T>> pixel_size, image_view<T> output, const G& g = {},
+                       const std::type_identity_t<filter_settings<T>>& s = {},
+                       const std::type_identity_t<glm::vec<3, T>>& light_normal = {0, 1, 0}, Exec&& exec = {}) {
     image<T> scratch(visibility.width(), visibility.height());
     filter_visibility<T>(visibility, filter_width, pixel_size, output, scratch.view(), g, s, light_normal,
                          std::forward<Exec>(exec));
