@@ -128,14 +128,18 @@ bisecting_tracer(const Tracer*, unsigned = 5) -> bisecting_tracer<Tracer>;
 namespace detail {
 
 /// Keeps only hits inside (0, length); a NaN anywhere marks the sample as failed (nearest = NaN).
+/// A span reports only its two ends: when one end is outside (e.g. the light's own geometry at
+/// t = length), the end inside is the only hit known to count, and the span collapses onto it.
 template <class T>
 [[nodiscard]] constexpr occluder_span<T> sanitize(occluder_span<T> s, T length) noexcept {
     if (std::isnan(s.nearest) || std::isnan(s.farthest)) return {std::numeric_limits<T>::quiet_NaN(), T(0)};
     if (!s.hit()) return {};
-    if (s.nearest <= T(0)) s.nearest = T(0);  // an occluder at the origin is a contact
-    if (s.farthest >= length) s.farthest = length;
-    if (s.nearest >= length) return {};
-    return s;
+    const bool near_inside = s.nearest > T(0) && s.nearest < length;
+    const bool far_inside = s.farthest > T(0) && s.farthest < length;
+    if (near_inside && far_inside) return s;
+    if (near_inside) return {s.nearest, s.nearest};
+    if (far_inside) return {s.farthest, s.farthest};
+    return {};
 }
 
 /// Traces one segment with whatever form the tracer offers.
