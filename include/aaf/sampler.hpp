@@ -149,15 +149,14 @@ void generate_samples(sample_pattern pattern, const sample_key& key, std::span<g
     if (n == 0) return;
     const std::uint32_t seed = detail::key_hash(key);
     if (pattern == sample_pattern::low_discrepancy) {
-        const std::uint32_t index_seed = detail::hash32(seed ^ 0xa511e9b3U);
         const std::uint32_t sx = detail::hash32(seed ^ 0x63d83595U);
         const std::uint32_t sy = detail::hash32(seed ^ 0x0b4f3a5dU);
-        for (std::uint32_t i = 0; i < n; ++i) {
-            // Scrambling the index shuffles which points a prefix uses while keeping the net property.
-            const std::uint32_t j = detail::owen_scramble(i, index_seed);
-            out[i] = {detail::to_unit<T>(detail::owen_scramble(detail::sobol_dim0(j), sx)),
-                      detail::to_unit<T>(detail::owen_scramble(detail::sobol_dim1(j), sy))};
-        }
+        // Owen scrambling of each dimension decorrelates pixels and keeps every power-of-two prefix a net.
+        // The index is not shuffled (Burley's index scramble only matters when padding more dimensions), so
+        // the Sobol' loop runs over the few bits of i < n instead of 32 random bits: ~4x cheaper.
+        for (std::uint32_t i = 0; i < n; ++i)
+            out[i] = {detail::to_unit<T>(detail::owen_scramble(detail::sobol_dim0(i), sx)),
+                      detail::to_unit<T>(detail::owen_scramble(detail::sobol_dim1(i), sy))};
         return;
     }
     const detail::strata_layout s = detail::make_strata(n);
