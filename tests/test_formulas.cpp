@@ -469,7 +469,8 @@ TEMPLATE_TEST_CASE("limit: NaN inputs are treated as no occluder", "[formulas][l
         }
         // β from a NaN bandwidth is "do not filter", never an infinite blur.
         CHECK(aaf::filter_width(nan, T(3)) == T(0));
-        // NaN distances in a record: slopes() stays finite and ordered.
+        // NaN distances in a record (corrupted): like every NaN input, "no occluder" — the {0, +inf}
+        // identity, which neither filters nor spreads, rather than an invented contact shadow.
         aaf::occlusion_stats<T> st;
         st.samples = st.occluded = 1;
         st.total_weight = T(1);
@@ -477,10 +478,13 @@ TEMPLATE_TEST_CASE("limit: NaN inputs are treated as no occluder", "[formulas][l
         st.d2min = nan;
         st.d2max = nan;
         const auto s = aaf::slopes(st);
-        CHECK(std::isfinite(s.s1));
-        CHECK(std::isfinite(s.s2));
-        CHECK(s.s1 >= s.s2);
-        CHECK(s.s2 >= T(0));
+        CHECK_FALSE(s.has_occluder());
+        CHECK(s.s1 == T(0));
+        CHECK(s.s2 == inf);
+        st.d2min = T(1);  // one NaN end is enough
+        CHECK_FALSE(aaf::slopes(st).has_occluder());
+        st.d2max = T(1);
+        CHECK(aaf::slopes(st).has_occluder());
         st.d1 = nan;
         CHECK_FALSE(aaf::slopes(st).has_occluder());
     }
@@ -755,4 +759,10 @@ TEST_CASE("validate() rejects invalid sampling settings, naming the field", "[fo
         fs.sampling = s;
         CHECK(contains(what_of([&] { aaf::validate(fs); }), c.field));
     }
+}
+
+TEST_CASE("an infinite max_slope is rejected by validate", "[formulas][errors]") {
+    aaf::formula_settings<float> f;
+    f.max_slope = std::numeric_limits<float>::infinity();
+    CHECK_THROWS_WITH(aaf::validate(f), Catch::Contains("settings.formulas.max_slope"));
 }

@@ -348,3 +348,27 @@ TEMPLATE_TEST_CASE("analytic scene: two occluders give d2min and d2max of the tw
     CHECK(static_cast<double>(sl.s2) == Approx(3.0 / 2.0 - 1).epsilon(32 * static_cast<double>(eps)));
     CHECK(static_cast<double>(t.pixel.visibility()) == Approx(sc.exact_visibility(p)).margin(0.05));
 }
+
+TEST_CASE("a record with NaN occluder distances gives no slopes rather than a contact", "[stats][limits]") {
+    aaf::occlusion_stats<float> s;
+    s.add_sample(1.0f, 2.0f, 2.0f, {1.0f, 1.0f});
+    REQUIRE(aaf::slopes(s).has_occluder());
+    s.d2min = std::numeric_limits<float>::quiet_NaN();
+    CHECK_FALSE(aaf::slopes(s).has_occluder());
+}
+
+TEST_CASE("through gather_occlusion d2 is the occluder's true distance to the light plane", "[stats][gather]") {
+    // d1 is measured from the offset ray origin, like t and L, so d2 = d1·(L − t)/L has no offset error.
+    aaf_test::analytic_scene<float> sc;
+    sc.width = sc.height = 8;
+    sc.occluders = {{-5.0f, 5.0f, -5.0f, 5.0f, 1.0f}};  // covers everything: every sample occluded at height 1
+    const aaf_test::analytic_gbuffer<float> gb(sc);
+    aaf::image<aaf::occlusion_stats<float>> stats(8, 8);
+    aaf::gather_occlusion(gb.view(), sc.area_light(), aaf_test::span_tracer<float>{&sc}, {}, 0, 9, stats.view());
+    for (std::size_t i = 0; i < stats.size(); ++i) {
+        const auto& s = stats.data()[i];
+        REQUIRE(s.occluded == 9);
+        CHECK(s.d2min == Approx(2.0f).epsilon(4e-7));  // light at 3, occluder at 1
+        CHECK(s.d2max == Approx(2.0f).epsilon(4e-7));
+    }
+}

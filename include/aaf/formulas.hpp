@@ -8,10 +8,12 @@
 //
 // Limits, and what each function returns there (tested in tests/test_formulas.cpp):
 // * no occluder (s2 = +∞)  → Ω* = +∞, β = 0 (nothing to filter), n = 0 (no adaptive samples wanted);
-// * contact, s2 → 0         → light bound +∞, Ω* pixel-limited, β ≈ d/(kμα): a near no-op filter;
-//                             paper n → +∞ (callers clamp it, as the paper says), authors' n finite;
+// * contact, s2 → 0         → light bound +∞, Ω* pixel-limited, β = d(1+s2)/(kμα) (paper form) or
+//                             d(1+s2)/(kα) (authors' form): well under a pixel, a near no-op filter;
+//                             paper n → +∞ (callers clamp it, as the paper says); authors' n finite
+//                             for d > 0 (+∞ when d = 0 and s1 > 0, which clamps the same way);
 // * occluder at the light   → slopes capped at max_slope by slopes(), everything finite;
-// * point light, σ = 0      → Ω* pixel-limited; n = 1 (a point light has no penumbra: one sample is exact);
+// * point light, σ = 0      → Ω* pixel-limited (β as at contact); n = 1 (no penumbra: one sample is exact);
 // * zero pixel size, d = 0  → pixel bound +∞, Ω* light-limited; n uses d·Ω* → 0;
 // * NaN inputs              → treated as "no occluder" (NaN s1, s2, σ or d, and a NaN Ω* given to filter_width).
 

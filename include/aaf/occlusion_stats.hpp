@@ -88,13 +88,14 @@ template <class T>
 /// * no occluder → {0, +∞} (the "no slopes" identity);
 /// * noise with d2 > d1 → d2 clamped to d1 (s = 0, a contact shadow);
 /// * d2 → 0 (occluder at the light) → d2 clamped to d1 / (1 + max_slope), so s ≤ max_slope;
-/// * non-finite d1 → treated as no occluder.
+/// * non-finite d1 or NaN d2 (a corrupted record) → treated as no occluder.
 template <class T>
 [[nodiscard]] constexpr slope_pair<T> slopes(const occlusion_stats<T>& s, T max_slope = T(1e6)) noexcept {
-    if (!s.has_occluder() || !(s.d1 > T(0)) || !std::isfinite(s.d1)) return {};
+    if (!s.has_occluder() || !(s.d1 > T(0)) || !std::isfinite(s.d1) || std::isnan(s.d2min) || std::isnan(s.d2max))
+        return {};
     const T floor_d2 = s.d1 / (T(1) + max_slope);
-    const T d2min = std::clamp(std::isnan(s.d2min) ? s.d1 : s.d2min, floor_d2, s.d1);
-    const T d2max = std::clamp(std::isnan(s.d2max) ? s.d1 : s.d2max, d2min, s.d1);
+    const T d2min = std::clamp(s.d2min, floor_d2, s.d1);
+    const T d2max = std::clamp(s.d2max, d2min, s.d1);
     return {s.d1 / d2min - T(1), s.d1 / d2max - T(1)};
 }
 

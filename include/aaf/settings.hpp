@@ -86,7 +86,8 @@ void validate(const formula_settings<T>& s, const char* function = "validate") {
     require(std::isfinite(s.k) && s.k > T(0), function, "settings.formulas.k", "must be finite and > 0 (got " + std::to_string(s.k) + ")");
     require(std::isfinite(s.mu) && s.mu >= T(1), function, "settings.formulas.mu", "must be finite and >= 1 (got " + std::to_string(s.mu) + ")");
     require(std::isfinite(s.alpha) && s.alpha > T(0), function, "settings.formulas.alpha", "must be finite and > 0 (got " + std::to_string(s.alpha) + ")");
-    require(s.max_slope > T(0), function, "settings.formulas.max_slope", "must be > 0 (got " + std::to_string(s.max_slope) + ")");
+    require(std::isfinite(s.max_slope) && s.max_slope > T(0), function, "settings.formulas.max_slope",
+            "must be finite and > 0 (got " + std::to_string(s.max_slope) + ")");
 }
 
 inline void validate(const sampling_settings& s, const char* function = "validate") {
