@@ -272,7 +272,8 @@ int main(int argc, char** argv) try {
                 static_cast<double>(report.initial_rays) / pixels, static_cast<double>(report.adaptive_rays) / pixels);
     std::printf("  RMSE vs %u-spp reference: unfiltered %.4f, aaf %.4f\n", opt.reference_spp, rmse_noisy, rmse_filtered);
     std::printf("  beta %.1f..%.1f px, samples per pixel %.0f..%.0f\n", beta_range.lo, beta_range.hi, spp_range.lo, spp_range.hi);
-    std::printf("pictures in %s/: noisy.png filtered.png reference.png error.png beta.png spp.png\n", opt.out.c_str());
+    std::printf("pictures in %s/: noisy.png filtered.png reference.png error.png beta.png spp.png\n",
+                std::filesystem::absolute(opt.out).string().c_str());
     return 0;
 } catch (const std::exception& e) {
     std::fprintf(stderr, "aaf-demo: %s\n", e.what());
