@@ -4,6 +4,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "support/helpers.hpp"
+
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -15,6 +17,8 @@
 #include <aaf/occlusion_stats.hpp>
 
 namespace {
+
+using aaf_test::what_of;
 constexpr double nan_d = std::numeric_limits<double>::quiet_NaN();
 constexpr float nan_f = std::numeric_limits<float>::quiet_NaN();
 const aaf::rgb8 first_knot{68, 1, 84};
@@ -22,14 +26,6 @@ const aaf::rgb8 middle_knot{33, 144, 141};  // knot 4 of 0..8
 const aaf::rgb8 last_knot{253, 231, 37};
 const aaf::rgb8 magenta{255, 0, 255};
 
-std::string what_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const aaf::invalid_argument& e) {
-        return e.what();
-    }
-    return "<no aaf::invalid_argument thrown>";
-}
 }  // namespace
 
 TEST_CASE("debug: heat_color endpoints, knots, clamping and NaN", "[debug]") {

@@ -24,9 +24,12 @@
 #include <aaf/image_view.hpp>
 #include <aaf/settings.hpp>
 
+#include "support/helpers.hpp"
 #include "reference/reference_filter.hpp"
 
 namespace {
+
+using aaf_test::what_of;
 
 using vec3 = glm::vec3;
 using settings = aaf::filter_settings<float>;
@@ -205,15 +208,6 @@ void check_separable(const scene& sc, const G& g, const settings& s, vec3 light_
 settings with_space(settings s, aaf::offset_space sp) {
     s.space = sp;
     return s;
-}
-
-std::string what_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const aaf::invalid_argument& e) {
-        return e.what();
-    }
-    return "<no aaf::invalid_argument thrown>";
 }
 
 }  // namespace

@@ -17,17 +17,12 @@
 #include <aaf/sampler.hpp>
 #include <aaf/tracer.hpp>
 
+#include "support/helpers.hpp"
 #include "support/analytic_scene.hpp"
 
 namespace {
 
-template <class T>
-aaf::occluder_span<T> span(T nearest, T farthest) {
-    aaf::occluder_span<T> s;
-    s.nearest = nearest;
-    s.farthest = farthest;
-    return s;
-}
+using aaf_test::span;
 
 template <class T>
 bool same(const aaf::occlusion_stats<T>& a, const aaf::occlusion_stats<T>& b) {

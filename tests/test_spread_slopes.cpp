@@ -18,9 +18,12 @@
 #include <aaf/image.hpp>
 #include <aaf/occlusion_stats.hpp>
 
+#include "support/helpers.hpp"
 #include "reference/reference_filter.hpp"
 
 namespace {
+
+using aaf_test::what_of;
 
 using sp = aaf::slope_pair<float>;
 constexpr float inf_f = std::numeric_limits<float>::infinity();
@@ -66,15 +69,6 @@ aaf::image<sp> copy_of(const aaf::image<sp>& a) {
     for (std::size_t y = 0; y < a.height(); ++y)
         for (std::size_t x = 0; x < a.width(); ++x) c(x, y) = a(x, y);
     return c;
-}
-
-std::string what_of(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const aaf::invalid_argument& e) {
-        return e.what();
-    }
-    return "<no aaf::invalid_argument thrown>";
 }
 
 constexpr std::size_t sizes[][2] = {{16, 16}, {37, 23}, {96, 64}, {1, 20}, {20, 1}, {5, 3}};

@@ -16,6 +16,7 @@
 #include <aaf/area_light.hpp>
 #include <aaf/tracer.hpp>
 
+#include "support/helpers.hpp"
 #include "support/analytic_scene.hpp"
 
 // ---------------------------------------------------------------------------------------------------
@@ -131,13 +132,7 @@ static_assert(aaf::occlusion_tracer<nearest_returns_double, float>);
 
 namespace {
 
-template <class T>
-aaf::occluder_span<T> span(T nearest, T farthest) {
-    aaf::occluder_span<T> s;
-    s.nearest = nearest;
-    s.farthest = farthest;
-    return s;
-}
+using aaf_test::span;
 
 /// Shadow segments from receiver points of the analytic scene to stratified-ish points on its light.
 template <class T>
