@@ -1,0 +1,188 @@
+// SPDX-License-Identifier: MIT
+// The examples' BVH (examples/common/bvh.hpp): build time, and shadow rays per second for the three tracer
+// queries (occluder_span, nearest_occluder, occluded) on 1 and 2 threads, on real meshes: the bunny, the
+// plant and the bench from assets/meshes, and the 300k-triangle sports car when it is available (it is not
+// in the repository: AAF_SPORTSCAR=<file>, or sportsCar.obj in $AAF_SCENES_DIR, default
+// <source>/../shared/scenes; the car's benchmarks are skipped with an error otherwise).
+//
+// Segments run from random points on a ground plane under the mesh (its lowest point) to random points on
+// a rectangular light above it, half the mesh's footprint wide, one mesh height above its top; the ground
+// is twice the footprint, so there are lit, penumbra and umbra samples.
+//
+//   build/release/benchmarks/aaf_benchmarks --benchmark_filter=bvh
+
+#include <benchmark/benchmark.h>
+
+#include <cstdint>
+#include <cstdlib>
+#include <exception>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <memory>
+#include <random>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <aaf/tracer.hpp>
+
+#include "common/bvh.hpp"
+#include "common/mesh_io.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using aaf_examples::bvh;
+using segment = aaf::shadow_segment<float>;
+
+/// Where a benchmark mesh may be, in order of preference (only the car has more than one place).
+std::vector<fs::path> mesh_candidates(const std::string& name) {
+    const fs::path assets = fs::path(AAF_SOURCE_DIR) / "assets" / "meshes";
+    if (name != "sportsCar.obj") return {assets / name};
+    std::vector<fs::path> candidates;
+    if (const char* file = std::getenv("AAF_SPORTSCAR")) candidates.emplace_back(file);
+    candidates.push_back(assets / name);
+    if (const char* dir = std::getenv("AAF_SCENES_DIR")) candidates.push_back(fs::path(dir) / name);
+    candidates.push_back((fs::path(AAF_SOURCE_DIR) / ".." / "shared" / "scenes" / name).lexically_normal());
+    return candidates;
+}
+
+/// A loaded mesh, its BVH and a batch of shadow segments; loaded once per process.
+struct scene {
+    aaf_examples::triangle_mesh mesh;
+    std::unique_ptr<bvh> tree;
+    std::vector<segment> segments;
+    std::string error;  // non-empty: the mesh is unavailable
+};
+
+const scene& get_scene(const std::string& name) {
+    static std::map<std::string, scene> cache;
+    const auto found = cache.find(name);
+    if (found != cache.end()) return found->second;
+    scene& s = cache[name];
+    fs::path path;
+    for (const fs::path& p : mesh_candidates(name))
+        if (path.empty() && fs::is_regular_file(p)) path = p;
+    if (path.empty()) {
+        s.error = name + " not found; tried:";
+        for (const fs::path& p : mesh_candidates(name)) s.error += " " + p.string();
+        if (name == "sportsCar.obj") s.error += " (set AAF_SPORTSCAR=<file> or AAF_SCENES_DIR=<dir>)";
+        return s;
+    }
+    try {
+        s.mesh = aaf_examples::load_triangles(path);
+        s.tree = std::make_unique<bvh>(s.mesh.vertices, s.mesh.triangles);
+    } catch (const std::exception& e) {
+        s.error = e.what();
+        return s;
+    }
+    glm::vec3 lo(std::numeric_limits<float>::infinity()), hi(-lo);
+    for (const glm::vec3& v : s.mesh.vertices) lo = glm::min(lo, v), hi = glm::max(hi, v);
+    const glm::vec3 centre = 0.5f * (lo + hi), size = hi - lo;
+    std::mt19937 rng(42);
+    std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+    const std::size_t n = 256;  // receivers: one jittered point per cell of an n×n grid, in scanline order
+    s.segments.resize(n * n);
+    for (std::size_t i = 0; i < n * n; ++i) {
+        segment& seg = s.segments[i];
+        const float gx = (static_cast<float>(i % n) + 0.5f + u(rng)) / static_cast<float>(n) - 0.5f;
+        const float gz = (static_cast<float>(i / n) + 0.5f + u(rng)) / static_cast<float>(n) - 0.5f;
+        const glm::vec3 ground(centre.x + 2.0f * size.x * gx, lo.y, centre.z + 2.0f * size.z * gz);
+        const glm::vec3 light(centre.x + 0.5f * size.x * u(rng), hi.y + size.y, centre.z + 0.5f * size.z * u(rng));
+        seg.length = glm::length(light - ground);
+        seg.direction = (light - ground) / seg.length;
+        seg.origin = ground;
+    }
+    return s;
+}
+
+/// Runs `trace(segment) -> count` over the batch, split over `threads` threads (the caller's included).
+template <class Trace>
+std::size_t run_batch(const std::vector<segment>& segments, unsigned threads, Trace trace) {
+    std::vector<std::size_t> counts(threads, 0);
+    const auto work = [&](unsigned t) {
+        const std::size_t first = segments.size() * t / threads, last = segments.size() * (t + 1) / threads;
+        std::size_t c = 0;
+        for (std::size_t i = first; i < last; ++i) c += trace(segments[i]);
+        counts[t] = c;
+    };
+    std::vector<std::thread> workers;
+    for (unsigned t = 1; t < threads; ++t) workers.emplace_back(work, t);
+    work(0);
+    for (std::thread& w : workers) w.join();
+    std::size_t total = 0;
+    for (const std::size_t c : counts) total += c;
+    return total;
+}
+
+void BM_bvh_build(benchmark::State& state, const std::string& name) {
+    const scene& s = get_scene(name);
+    if (!s.error.empty()) {
+        state.SkipWithError(s.error.c_str());
+        return;
+    }
+    const aaf_examples::bvh_build_options options{4, static_cast<unsigned>(state.range(0))};
+    for (auto _ : state) {
+        const bvh tree(s.mesh.vertices, s.mesh.triangles, options);
+        benchmark::DoNotOptimize(tree.nodes().data());
+    }
+    state.counters["triangles"] = static_cast<double>(s.tree->triangle_count());
+    state.counters["nodes"] = static_cast<double>(s.tree->nodes().size());
+    state.counters["depth"] = s.tree->depth();
+    state.counters["Mtris/s"] = benchmark::Counter(static_cast<double>(state.iterations()) *
+                                                       static_cast<double>(s.mesh.triangles.size()) * 1e-6,
+                                                   benchmark::Counter::kIsRate);
+}
+
+enum class query { occluder_span, nearest_occluder, occluded };
+
+void BM_bvh_shadow(benchmark::State& state, const std::string& name, query q) {
+    const scene& s = get_scene(name);
+    if (!s.error.empty()) {
+        state.SkipWithError(s.error.c_str());
+        return;
+    }
+    const bvh& tree = *s.tree;
+    const auto threads = static_cast<unsigned>(state.range(0));
+    std::size_t occluded = 0;
+    for (auto _ : state) {
+        switch (q) {
+        case query::occluder_span:
+            occluded = run_batch(s.segments, threads, [&](const segment& g) { return std::size_t{tree.occluder_span(g).hit()}; });
+            break;
+        case query::nearest_occluder:
+            occluded = run_batch(s.segments, threads, [&](const segment& g) {
+                return std::size_t{tree.nearest_occluder(g) != aaf::no_occluder<float>};
+            });
+            break;
+        case query::occluded:
+            occluded = run_batch(s.segments, threads, [&](const segment& g) { return std::size_t{tree.occluded(g)}; });
+            break;
+        }
+        benchmark::DoNotOptimize(occluded);
+    }
+    const double rays = static_cast<double>(state.iterations()) * static_cast<double>(s.segments.size());
+    state.counters["Mrays/s"] = benchmark::Counter(rays * 1e-6, benchmark::Counter::kIsRate);
+    state.counters["occluded"] = static_cast<double>(occluded) / static_cast<double>(s.segments.size());
+    state.counters["triangles"] = static_cast<double>(tree.triangle_count());
+}
+
+void register_all() {
+    for (const char* mesh : {"bun_zipper.ply", "sportsCar.obj"})
+        benchmark::RegisterBenchmark((std::string("BM_bvh_build/") + mesh).c_str(), BM_bvh_build, std::string(mesh))
+            ->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime();
+    const std::pair<const char*, query> queries[] = {{"occluder_span", query::occluder_span},
+                                                     {"nearest_occluder", query::nearest_occluder},
+                                                     {"occluded", query::occluded}};
+    for (const char* mesh : {"bun_zipper.ply", "plant.obj", "bench.obj", "sportsCar.obj"})
+        for (const auto& [qname, q] : queries)
+            benchmark::RegisterBenchmark((std::string("BM_bvh_") + qname + "/" + mesh).c_str(), BM_bvh_shadow,
+                                         std::string(mesh), q)
+                ->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime();
+}
+
+[[maybe_unused]] const bool registered = (register_all(), true);
+
+}  // namespace
