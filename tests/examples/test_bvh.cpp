@@ -430,8 +430,8 @@ TEST_CASE("bvh matches brute force on 10k random triangles", "[bvh][synthetic]")
         m.triangles.push_back({3 * i, 3 * i + 1, 3 * i + 2});
     }
     const agreement a = check_mesh(m, 2000, 11);
-    CHECK(a.primary_hits > 1000);
-    CHECK(a.span_extents > 500);
+    CHECK(a.primary_hits > 600);
+    CHECK(a.span_extents > 300);
 }
 
 TEST_CASE("degenerate and non-finite triangles are dropped and counted; the rest still matches", "[bvh][synthetic]") {
