@@ -44,12 +44,12 @@ struct mesh_builder {
     }
 };
 
-/// The light as read_light builds {center, size: [w, h], normal: [0, -1, 0]}: edge_u (length w) along +z,
-/// edge_v (length h) along -x, cross(edge_u, edge_v) pointing down.
+/// The light as read_light builds {center, size: [w, h], normal: [0, -1, 0]}: edge_u (length w) along +x,
+/// edge_v (length h) along +z, cross(edge_u, edge_v) pointing down.
 aaf::area_light<float> downward_light(const glm::vec3& center, float w, float h) {
     aaf::area_light<float> l;
-    l.edge_u = {0, 0, w};
-    l.edge_v = {-h, 0, 0};
+    l.edge_u = {w, 0, 0};
+    l.edge_v = {0, 0, h};
     l.corner = center - 0.5f * (l.edge_u + l.edge_v);
     return l;
 }

@@ -1,0 +1,476 @@
+// SPDX-License-Identifier: MIT
+// aaf-render: a small soft-shadow renderer that shows aaf inside a real ray tracer. It loads a scene (built
+// in, or a JSON file with real meshes), builds a BVH, renders a G-buffer from primary rays, runs the aaf
+// pipeline with the BVH as its tracer, renders (or loads from its cache) a converged reference, and writes
+// the pictures and a one-screen summary. Run with --help for the options.
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <stb_image_write.h>
+
+#include <glm/trigonometric.hpp>
+
+#include <aaf/aaf.hpp>
+
+#include "common/bvh.hpp"
+#include "common/scene.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using aaf_examples::scene;
+using clock_type = std::chrono::steady_clock;
+
+double ms_since(clock_type::time_point t0) {
+    return std::chrono::duration<double, std::milli>(clock_type::now() - t0).count();
+}
+
+/// A user error: printed as one line, exit code 1.
+struct usage_error : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+struct options {
+    std::string scene = "plant";
+    fs::path scenes_dir = fs::path(__FILE__).parent_path().parent_path() / "scenes";
+    fs::path out = "aaf-render-output";
+    fs::path cache;  // default: <out>/cache
+    std::optional<std::size_t> width, height;
+    std::uint32_t reference_spp = 1024;
+    bool reference = true;
+    std::size_t threads = 0;
+    std::optional<float> mu;
+    std::optional<std::uint32_t> initial_samples, max_samples;
+    aaf::offset_space space = aaf::offset_space::image;
+    bool first_hit = false;
+    std::uint32_t seed = 0;
+};
+
+const char* const help_text =
+    "usage: aaf-render [options]\n"
+    "Renders the soft shadow of a scene with aaf and writes noisy, filtered and reference pictures,\n"
+    "the error and the beta / samples-per-pixel / d2 maps as PNG, plus a summary.\n"
+    "\n"
+    "  --scene NAME|FILE     built-in scene (lattice, boxes, tentacles), a scene in --scenes-dir\n"
+    "                        (bunny, plant, bench, blinds, cornell, car) or a .json file [plant]\n"
+    "  --scenes-dir DIR      where scene names are looked up [the repository's scenes/]\n"
+    "  --size WxH            image size, overriding the scene's\n"
+    "  --out DIR             output folder [aaf-render-output]\n"
+    "  --reference-spp N     samples per pixel of the converged reference [1024]\n"
+    "  --no-reference        skip the reference (and the error picture)\n"
+    "  --cache DIR           where references are cached between runs [OUT/cache]\n"
+    "  --threads N           threads (0 = all cores) [0]\n"
+    "  --mu X                aaf's mu (>= 1; larger = more samples, narrower filter) [scene's or 2]\n"
+    "  --initial-samples N   first-pass samples per pixel [scene's or 9]\n"
+    "  --max-samples N       cap on samples per pixel [scene's or 100]\n"
+    "  --offsets image|light filter offsets in image space or parallel to the light [image]\n"
+    "  --first-hit           the tracer reports only the nearest occluder (else nearest and farthest)\n"
+    "  --seed N              frame seed [0]\n"
+    "  --help                this text\n"
+    "Large optional meshes (the sports car) are found through the AAF_SCENES_DIR environment variable.\n";
+
+std::uint32_t parse_count(const std::string& flag, const std::string& v, std::uint32_t lo, std::uint32_t hi) {
+    char* end = nullptr;
+    const unsigned long long n = std::strtoull(v.c_str(), &end, 10);
+    if (v.empty() || *end != '\0' || v[0] == '-' || n < lo || n > hi)
+        throw usage_error(flag + " must be a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "] (got '" + v + "')");
+    return static_cast<std::uint32_t>(n);
+}
+
+options parse(int argc, char** argv) {
+    options o;
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        const auto value = [&]() -> std::string {
+            if (i + 1 >= argc) throw usage_error(a + " needs a value (see --help)");
+            return argv[++i];
+        };
+        if (a == "--help" || a == "-h") {
+            std::fputs(help_text, stdout);
+            std::exit(0);
+        } else if (a == "--scene") o.scene = value();
+        else if (a == "--scenes-dir") o.scenes_dir = value();
+        else if (a == "--out") o.out = value();
+        else if (a == "--cache") o.cache = value();
+        else if (a == "--size") {
+            const std::string v = value();
+            const auto x = v.find('x');
+            if (x == std::string::npos) throw usage_error("--size must be WxH, e.g. 640x480 (got '" + v + "')");
+            o.width = parse_count("--size width", v.substr(0, x), 1, aaf_examples::max_image_side);
+            o.height = parse_count("--size height", v.substr(x + 1), 1, aaf_examples::max_image_side);
+        } else if (a == "--reference-spp") o.reference_spp = parse_count(a, value(), 1, 1u << 20);
+        else if (a == "--no-reference") o.reference = false;
+        else if (a == "--threads") o.threads = parse_count(a, value(), 0, 1024);
+        else if (a == "--mu") {
+            const std::string v = value();
+            char* end = nullptr;
+            const float mu = std::strtof(v.c_str(), &end);
+            if (v.empty() || *end != '\0' || !(mu >= 1.0f) || !std::isfinite(mu)) throw usage_error("--mu must be a number >= 1 (got '" + v + "')");
+            o.mu = mu;
+        } else if (a == "--initial-samples") o.initial_samples = parse_count(a, value(), 1, 4096);
+        else if (a == "--max-samples") o.max_samples = parse_count(a, value(), 1, 1u << 20);
+        else if (a == "--offsets") {
+            const std::string v = value();
+            if (v == "image") o.space = aaf::offset_space::image;
+            else if (v == "light") o.space = aaf::offset_space::light_plane;
+            else throw usage_error("--offsets must be image or light (got '" + v + "')");
+        } else if (a == "--first-hit") o.first_hit = true;
+        else if (a == "--seed") o.seed = parse_count(a, value(), 0, 0xffffffffu);
+        else throw usage_error("unknown option '" + a + "' (see --help)");
+    }
+    if (o.cache.empty()) o.cache = o.out / "cache";
+    return o;
+}
+
+/// Hides the farthest occluder: the "first hit" statistics of FORMULAS.md §1.3.
+struct first_hit_tracer {
+    const aaf_examples::bvh* bvh;
+    [[nodiscard]] float nearest_occluder(const aaf::shadow_segment<float>& s) const noexcept { return bvh->nearest_occluder(s); }
+};
+
+/// The G-buffer of a pinhole camera, in the layout aaf reads.
+struct gbuffer_images {
+    aaf::image<glm::vec3> positions, normals;
+    aaf::image<float> pixel_size, albedo;
+    aaf::image<std::uint32_t> ids;
+    std::size_t surfaces = 0;
+};
+
+gbuffer_images render_gbuffer(const scene& s, const aaf_examples::bvh& bvh, aaf::thread_pool& pool) {
+    const std::size_t w = s.width, h = s.height;
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    gbuffer_images g{aaf::image<glm::vec3>(w, h, glm::vec3(nan)), aaf::image<glm::vec3>(w, h, glm::vec3(nan)),
+                     aaf::image<float>(w, h, 0.0f), aaf::image<float>(w, h, 0.0f),
+                     aaf::image<std::uint32_t>(w, h, 0xffffffffu), 0};
+    const float tan_half = std::tan(0.5f * glm::radians(s.view.fov_y_degrees));
+    const glm::vec3 fwd = glm::normalize(s.view.target - s.view.position);
+    const glm::vec3 right = glm::normalize(glm::cross(fwd, s.view.up)), up = glm::cross(right, fwd);
+    const float aspect = static_cast<float>(w) / static_cast<float>(h);
+    std::atomic<std::size_t> surfaces{0};
+    pool.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        std::size_t local = 0;
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                const float sx = (2.0f * (static_cast<float>(x) + 0.5f) / static_cast<float>(w) - 1.0f) * tan_half * aspect;
+                const float sy = (1.0f - 2.0f * (static_cast<float>(y) + 0.5f) / static_cast<float>(h)) * tan_half;
+                const glm::vec3 d = glm::normalize(fwd + sx * right + sy * up);
+                const aaf_examples::ray_hit hit = bvh.nearest_hit(s.view.position, d);
+                if (!hit.hit()) continue;
+                // The hit point from the triangle's vertices (barycentrics) is more accurate than o + t·d.
+                const glm::uvec3 tri = s.triangles[hit.triangle];
+                const glm::vec3 p = (1.0f - hit.barycentrics.x - hit.barycentrics.y) * s.vertices[tri.x] +
+                                    hit.barycentrics.x * s.vertices[tri.y] + hit.barycentrics.y * s.vertices[tri.z];
+                g.positions(x, y) = p;
+                g.normals(x, y) = glm::dot(hit.normal, d) < 0.0f ? hit.normal : -hit.normal;  // face the camera
+                const std::uint32_t object = s.triangle_object[hit.triangle];
+                g.ids(x, y) = object;
+                g.albedo(x, y) = s.objects[object].albedo;
+                g.pixel_size(x, y) = aaf::pinhole_pixel_size(hit.t, tan_half, static_cast<std::uint32_t>(h));
+                ++local;
+            }
+        surfaces += local;
+    });
+    g.surfaces = surfaces.load();
+    return g;
+}
+
+/// 64-bit FNV-1a over bytes: the reference cache key.
+struct fnv1a {
+    std::uint64_t h = 1469598103934665603ull;
+    void add(const void* data, std::size_t n) {
+        const auto* p = static_cast<const unsigned char*>(data);
+        for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+    }
+    template <class T>
+    void add(const std::vector<T>& v) { add(v.data(), v.size() * sizeof(T)); }
+    template <class T>
+    void add_value(const T& v) { add(&v, sizeof(T)); }
+};
+
+std::uint64_t reference_key(const scene& s, std::uint32_t spp) {
+    fnv1a f;
+    const std::uint32_t format = 2;  // bump when the reference's meaning changes
+    f.add_value(format);
+    f.add(s.vertices);
+    f.add(s.triangles);
+    f.add_value(s.light);
+    f.add_value(s.view);
+    f.add_value(s.width);
+    f.add_value(s.height);
+    f.add_value(spp);
+    return f.h;
+}
+
+/// The converged reference: plain stratified Monte Carlo with `spp` samples per pixel (in chunks, with a
+/// progress bar and an ETA on stderr), cached on disk under `cache` by a hash of everything it depends on.
+aaf::image<float> reference_visibility(const scene& s, const gbuffer_images& g, const aaf_examples::bvh& bvh,
+                                       std::uint32_t spp, const fs::path& cache, aaf::thread_pool& pool, bool& from_cache,
+                                       double& ms) {
+    const auto t0 = clock_type::now();
+    const std::size_t w = s.width, h = s.height;
+    char name[64];
+    std::snprintf(name, sizeof name, "reference-%016" PRIx64 ".f32", reference_key(s, spp));
+    const fs::path file = cache / name;
+    aaf::image<float> ref(w, h);
+    if (std::ifstream in{file, std::ios::binary}) {
+        in.read(reinterpret_cast<char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(float)));
+        if (in.gcount() == static_cast<std::streamsize>(ref.size() * sizeof(float))) {
+            from_cache = true;
+            ms = ms_since(t0);
+            return ref;
+        }
+    }
+    from_cache = false;
+    // Visibility only, so the BVH's any-hit query (stops at the first hit), not aaf's occluder statistics:
+    // faster, and independent of the code under test. Samples: aaf's stratified sampler, passes 1000+, so
+    // they never coincide with the pipeline's passes 0 and 1; weights as the pipeline's (uniform).
+    std::vector<double> visible(w * h, 0.0), total(w * h, 0.0);
+    const std::uint32_t chunk = std::max<std::uint32_t>(16, std::min<std::uint32_t>(256, spp / 16));
+    for (std::uint32_t done = 0, pass = 0; done < spp; done += chunk, ++pass) {
+        const std::uint32_t n = std::min(chunk, spp - done);
+        pool.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+            std::vector<glm::vec2> uv(n);
+            for (std::size_t y = y0; y < y1; ++y)
+                for (std::size_t x = 0; x < w; ++x) {
+                    const glm::vec3 p = g.positions(x, y), nrm = g.normals(x, y);
+                    if (!std::isfinite(p.x)) continue;
+                    aaf::generate_samples<float>(aaf::sample_pattern::stratified,
+                                                 {static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y), 1000 + pass, 0, 0}, uv);
+                    const glm::vec3 origin = aaf::offset_ray_origin(p, glm::dot(nrm, s.light.center() - p) >= 0.0f ? nrm : -nrm);
+                    double vis = 0, tot = 0;
+                    for (const glm::vec2& u : uv) {
+                        const glm::vec3 yl = s.light.point(u.x, u.y);
+                        const float wgt = s.light.sample_weight(aaf::light_weighting::uniform, p, nrm, yl);
+                        if (!(wgt > 0.0f)) continue;
+                        const glm::vec3 to = yl - origin;
+                        const float len = glm::length(to);
+                        tot += static_cast<double>(wgt);
+                        if (!bvh.occluded({origin, to / len, len})) vis += static_cast<double>(wgt);
+                    }
+                    visible[y * w + x] += vis;
+                    total[y * w + x] += tot;
+                }
+        });
+        const double elapsed = ms_since(t0) / 1000.0, frac = static_cast<double>(done + n) / spp;
+        const int bar = static_cast<int>(frac * 30);
+        std::fprintf(stderr, "\rreference %5u spp [%.*s%*s] %3.0f%%  ETA %6.1f s ", spp, bar, "##############################",
+                     30 - bar, "", 100.0 * frac, elapsed / frac - elapsed);
+    }
+    std::fprintf(stderr, "\n");
+    for (std::size_t i = 0; i < ref.size(); ++i)
+        ref.data()[i] = total[i] > 0 ? static_cast<float>(visible[i] / total[i]) : std::numeric_limits<float>::quiet_NaN();
+    fs::create_directories(cache);
+    const fs::path tmp = file.string() + ".tmp";
+    {
+        std::ofstream outf(tmp, std::ios::binary);
+        outf.write(reinterpret_cast<const char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(float)));
+        if (!outf) throw std::runtime_error("cannot write the reference cache " + tmp.string());
+    }
+    fs::rename(tmp, file);
+    ms = ms_since(t0);
+    return ref;
+}
+
+/// Writes PNGs into `out` only when everything succeeded: each picture goes to a temporary name first, and
+/// `commit` renames them all; if the run fails before that, the destructor removes the temporaries.
+class picture_writer {
+public:
+    explicit picture_writer(fs::path out) : out_(std::move(out)) {}
+    picture_writer(const picture_writer&) = delete;
+    picture_writer& operator=(const picture_writer&) = delete;
+    ~picture_writer() {
+        std::error_code ec;
+        for (const auto& [tmp, final_name] : files_) fs::remove(tmp, ec);
+    }
+    void gray(const std::string& name, const aaf::image<float>& img, bool gamma = true) {
+        std::vector<unsigned char> px(img.size());
+        for (std::size_t i = 0; i < img.size(); ++i) {
+            const double v = std::clamp(static_cast<double>(img.data()[i]), 0.0, 1.0);
+            px[i] = static_cast<unsigned char>(std::lround(255.0 * (gamma ? std::pow(v, 1.0 / 2.2) : v)));
+        }
+        write(name, 1, px.data(), img.width(), img.height());
+    }
+    void rgb(const std::string& name, const aaf::image<aaf::rgb8>& img) { write(name, 3, img.data(), img.width(), img.height()); }
+    void commit() {
+        for (const auto& [tmp, final_name] : files_) fs::rename(tmp, final_name);
+        files_.clear();
+    }
+
+private:
+    void write(const std::string& name, int channels, const void* data, std::size_t w, std::size_t h) {
+        fs::create_directories(out_);  // only once there is something to write
+        const fs::path final_name = out_ / name;
+        const fs::path tmp = out_ / ("." + name + ".tmp");
+        files_.emplace_back(tmp, final_name);
+        if (!stbi_write_png(tmp.string().c_str(), static_cast<int>(w), static_cast<int>(h), channels, data,
+                            static_cast<int>(w) * channels))
+            throw std::runtime_error("cannot write " + final_name.string());
+    }
+    fs::path out_;
+    std::vector<std::pair<fs::path, fs::path>> files_;
+};
+
+/// Unfiltered visibility for display: undefined pixels as the pipeline defines them.
+aaf::image<float> displayable(const aaf::image<float>& raw, const gbuffer_images& g) {
+    aaf::image<float> out(raw.width(), raw.height());
+    for (std::size_t i = 0; i < raw.size(); ++i) {
+        const bool surface = std::isfinite(g.positions.data()[i].x);
+        const float v = raw.data()[i];
+        out.data()[i] = !surface ? 1.0f : std::isfinite(v) ? v : 0.0f;
+    }
+    return out;
+}
+
+int run(const options& opt) {
+    const auto t_start = clock_type::now();
+    scene s = aaf_examples::load_scene(opt.scene, opt.scenes_dir);
+    if (opt.width) s.width = *opt.width, s.height = *opt.height;
+    if (opt.mu) s.aaf.mu = *opt.mu;
+    if (opt.initial_samples) s.aaf.initial_samples = *opt.initial_samples;
+    if (opt.max_samples) s.aaf.max_samples = *opt.max_samples;
+    if (s.aaf.max_samples < s.aaf.initial_samples)
+        throw usage_error("--max-samples (" + std::to_string(s.aaf.max_samples) + ") is below the initial samples (" +
+                          std::to_string(s.aaf.initial_samples) + ")");
+    s.validate();
+    const std::size_t w = s.width, h = s.height;
+
+    aaf::thread_pool pool(opt.threads);
+    auto t0 = clock_type::now();
+    const aaf_examples::bvh bvh(s.vertices, s.triangles);
+    const double bvh_ms = ms_since(t0);
+    t0 = clock_type::now();
+    const gbuffer_images g = render_gbuffer(s, bvh, pool);
+    const double gbuffer_ms = ms_since(t0);
+
+    aaf::frame_settings<float> settings;
+    settings.formulas.mu = s.aaf.mu;
+    settings.sampling.initial_samples = s.aaf.initial_samples;
+    settings.sampling.max_samples = s.aaf.max_samples;
+    settings.sampling.frame_seed = opt.seed;
+    settings.filter.space = opt.space;
+    settings.radiance = s.radiance;
+    const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{g.positions.cview(), g.normals.cview(),
+                                                                       g.pixel_size.cview(), g.ids.cview()};
+    aaf::frame_workspace<float> ws;
+    aaf::image<float> filtered(w, h), irradiance(w, h);
+    // The exact unshadowed irradiance, for display; the pipeline would compute the same for outputs.shaded.
+    pool.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x)
+                irradiance(x, y) = std::isfinite(g.positions(x, y).x)
+                                       ? aaf::unshadowed_irradiance(s.light, g.positions(x, y), g.normals(x, y), s.radiance)
+                                       : 0.0f;
+    });
+    const aaf::frame_report report =
+        opt.first_hit ? aaf::render_frame(gb, s.light, first_hit_tracer{&bvh}, {filtered.view()}, ws, settings, pool)
+                      : aaf::render_frame(gb, s.light, bvh, {filtered.view()}, ws, settings, pool);
+
+    const aaf::image<float> noisy = displayable(ws.raw_visibility, g);
+    std::optional<aaf::image<float>> reference;
+    bool from_cache = false;
+    double reference_ms = 0;
+    if (opt.reference)
+        reference = displayable(reference_visibility(s, g, bvh, opt.reference_spp, opt.cache, pool, from_cache, reference_ms), g);
+
+    // Pictures: shaded = albedo × (ambient + exposure · E · visibility), gamma 2.2; exposure from the 95th
+    // percentile of E so the lit floor is near white whatever the light's radiance.
+    std::vector<float> es;
+    for (std::size_t i = 0; i < irradiance.size(); ++i)
+        if (irradiance.data()[i] > 0.0f) es.push_back(irradiance.data()[i]);
+    float exposure = 1.0f;
+    if (!es.empty()) {
+        std::nth_element(es.begin(), es.begin() + static_cast<std::ptrdiff_t>(es.size() * 95 / 100), es.end());
+        exposure = 1.0f / es[es.size() * 95 / 100];
+    }
+    const auto shade = [&](const aaf::image<float>& vis) {
+        aaf::image<float> img(w, h, 0.18f);  // background
+        for (std::size_t i = 0; i < img.size(); ++i)
+            if (std::isfinite(g.positions.data()[i].x))
+                img.data()[i] = g.albedo.data()[i] * (0.06f + 0.94f * std::min(1.0f, irradiance.data()[i] * exposure) * vis.data()[i]);
+        return img;
+    };
+    picture_writer pictures(opt.out);
+    pictures.gray("noisy.png", shade(noisy));
+    pictures.gray("filtered.png", shade(filtered));
+    pictures.gray("visibility-noisy.png", noisy);
+    pictures.gray("visibility-filtered.png", filtered);
+    aaf::image<aaf::rgb8> rgb(w, h);
+    double rmse_noisy = std::numeric_limits<double>::quiet_NaN(), rmse_filtered = rmse_noisy;
+    if (reference) {
+        pictures.gray("reference.png", shade(*reference));
+        pictures.gray("visibility-reference.png", *reference);
+        rmse_noisy = aaf::difference_image<float>(noisy.cview(), reference->cview(), rgb.view(), 0.1);
+        pictures.rgb("error-noisy.png", rgb);
+        rmse_filtered = aaf::difference_image<float>(filtered.cview(), reference->cview(), rgb.view(), 0.1);
+        pictures.rgb("error.png", rgb);
+    }
+    aaf::image<float> beta_px(w, h, std::numeric_limits<float>::quiet_NaN());
+    for (std::size_t i = 0; i < beta_px.size(); ++i)
+        if (ws.filter_width.data()[i] > 0.0f) beta_px.data()[i] = ws.filter_width.data()[i] / g.pixel_size.data()[i];
+    const aaf::heat_range beta_range = aaf::heat_map<float>(beta_px.cview(), rgb.view(), {}, true);
+    pictures.rgb("beta.png", rgb);
+    aaf::image<double> field(w, h);
+    aaf::extract<float>(ws.stats.cview(), aaf::stats_field::samples, field.view());
+    const aaf::heat_range spp_range = aaf::heat_map<double>(field.cview(), rgb.view());
+    pictures.rgb("spp.png", rgb);
+    aaf::extract<float>(ws.stats.cview(), aaf::stats_field::d2min, field.view());
+    const aaf::heat_range d2min_range = aaf::heat_map<double>(field.cview(), rgb.view());
+    pictures.rgb("d2min.png", rgb);
+    aaf::extract<float>(ws.stats.cview(), aaf::stats_field::d2max, field.view());
+    aaf::heat_map<double>(field.cview(), rgb.view(), d2min_range);
+    pictures.rgb("d2max.png", rgb);
+    pictures.commit();
+
+    const double pixels = static_cast<double>(g.surfaces ? g.surfaces : 1);
+    std::printf("aaf-render: scene '%s', %zux%zu, %zu triangles, %zu threads, light sigma %.4g\n", s.name.c_str(), w, h,
+                bvh.triangle_count(), pool.size(), static_cast<double>(s.light.sigma()));
+    std::printf("  %-34s %10s\n", "stage", "ms");
+    std::printf("  %-34s %10.1f\n", "BVH build", bvh_ms);
+    std::printf("  %-34s %10.1f\n", "G-buffer (primary rays)", gbuffer_ms);
+    std::printf("  %-34s %10.1f\n", "initial shadow samples", report.initial_ms);
+    std::printf("  %-34s %10.1f\n", "slopes, spreading, beta, n", report.formulas_ms);
+    std::printf("  %-34s %10.1f\n", "adaptive shadow samples", report.adaptive_ms);
+    std::printf("  %-34s %10.1f\n", "filter", report.filter_ms);
+    std::printf("  %-34s %10.1f\n", "aaf frame total", report.total_ms);
+    if (reference)
+        std::printf("  %-34s %10.1f%s\n", ("reference, " + std::to_string(opt.reference_spp) + " spp").c_str(), reference_ms,
+                    from_cache ? " (cached)" : "");
+    std::printf("  shadow rays per surface pixel: %.2f (initial %.2f, adaptive %.2f); %.1f Mrays/s in the frame\n",
+                static_cast<double>(report.rays()) / pixels, static_cast<double>(report.initial_rays) / pixels,
+                static_cast<double>(report.adaptive_rays) / pixels,
+                static_cast<double>(report.rays()) / (report.initial_ms + report.adaptive_ms) / 1000.0);
+    if (reference)
+        std::printf("  RMSE of visibility vs the reference: unfiltered %.4f, aaf %.4f%s\n", rmse_noisy, rmse_filtered,
+                    rmse_filtered > 0 ? (" (" + std::to_string(rmse_noisy / rmse_filtered).substr(0, 4) + "x lower)").c_str() : "");
+    std::printf("  beta %.2g..%.2g px, samples per pixel %.0f..%.0f\n", std::pow(10.0, beta_range.lo), std::pow(10.0, beta_range.hi),
+                spp_range.lo, spp_range.hi);
+    std::printf("pictures in %s: noisy filtered%s visibility-* beta spp d2min d2max (.png); total %.1f s\n",
+                fs::absolute(opt.out).string().c_str(), reference ? " reference error error-noisy" : "", ms_since(t_start) / 1000.0);
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return run(parse(argc, argv));
+    } catch (const std::exception& e) {
+        std::string what = e.what();
+        std::replace(what.begin(), what.end(), '\n', ' ');
+        std::fprintf(stderr, "aaf-render: %s\n", what.c_str());
+        return 1;
+    }
+}
