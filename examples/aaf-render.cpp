@@ -57,6 +57,7 @@ struct options {
     aaf::offset_space space = aaf::offset_space::image;
     bool first_hit = false;
     std::uint32_t seed = 0;
+    aaf::light_weighting weighting = aaf::light_weighting::uniform;
 };
 
 const char* const help_text =
@@ -78,6 +79,8 @@ const char* const help_text =
     "  --max-samples N       cap on samples per pixel [scene's or 100]\n"
     "  --offsets image|light filter offsets in image space or parallel to the light [image]\n"
     "  --first-hit           the tracer reports only the nearest occluder (else nearest and farthest)\n"
+    "  --weighting uniform|gaussian  light samples weighted uniformly (a physical rectangle) or by the\n"
+    "                        authors' Gaussian; the reference uses the same weighting [uniform]\n"
     "  --seed N              frame seed [0]\n"
     "  --help                this text\n"
     "Large optional meshes (the sports car) are found through the AAF_SCENES_DIR environment variable.\n";
@@ -128,6 +131,12 @@ options parse(int argc, char** argv) {
             else if (v == "light") o.space = aaf::offset_space::light_plane;
             else throw usage_error("--offsets must be image or light (got '" + v + "')");
         } else if (a == "--first-hit") o.first_hit = true;
+        else if (a == "--weighting") {
+            const std::string v = value();
+            if (v == "uniform") o.weighting = aaf::light_weighting::uniform;
+            else if (v == "gaussian") o.weighting = aaf::light_weighting::gaussian;
+            else throw usage_error("--weighting must be uniform or gaussian (got '" + v + "')");
+        }
         else if (a == "--seed") o.seed = parse_count(a, value(), 0, 0xffffffffu);
         else throw usage_error("unknown option '" + a + "' (see --help)");
     }
@@ -200,7 +209,7 @@ struct fnv1a {
     void add_value(const T& v) { add(&v, sizeof(T)); }
 };
 
-std::uint64_t reference_key(const scene& s, std::uint32_t spp) {
+std::uint64_t reference_key(const scene& s, std::uint32_t spp, aaf::light_weighting weighting) {
     fnv1a f;
     const std::uint32_t format = 2;  // bump when the reference's meaning changes
     f.add_value(format);
@@ -211,18 +220,19 @@ std::uint64_t reference_key(const scene& s, std::uint32_t spp) {
     f.add_value(s.width);
     f.add_value(s.height);
     f.add_value(spp);
+    f.add_value(weighting);
     return f.h;
 }
 
 /// The converged reference: plain stratified Monte Carlo with `spp` samples per pixel (in chunks, with a
 /// progress bar and an ETA on stderr), cached on disk under `cache` by a hash of everything it depends on.
 aaf::image<float> reference_visibility(const scene& s, const gbuffer_images& g, const aaf_examples::bvh& bvh,
-                                       std::uint32_t spp, const fs::path& cache, aaf::thread_pool& pool, bool& from_cache,
-                                       double& ms) {
+                                       std::uint32_t spp, aaf::light_weighting weighting, const fs::path& cache,
+                                       aaf::thread_pool& pool, bool& from_cache, double& ms) {
     const auto t0 = clock_type::now();
     const std::size_t w = s.width, h = s.height;
     char name[64];
-    std::snprintf(name, sizeof name, "reference-%016" PRIx64 ".f32", reference_key(s, spp));
+    std::snprintf(name, sizeof name, "reference-%016" PRIx64 ".f32", reference_key(s, spp, weighting));
     const fs::path file = cache / name;
     aaf::image<float> ref(w, h);
     if (std::ifstream in{file, std::ios::binary}) {
@@ -236,7 +246,7 @@ aaf::image<float> reference_visibility(const scene& s, const gbuffer_images& g, 
     from_cache = false;
     // Visibility only, so the BVH's any-hit query (stops at the first hit), not aaf's occluder statistics:
     // faster, and independent of the code under test. Samples: aaf's stratified sampler, passes 1000+, so
-    // they never coincide with the pipeline's passes 0 and 1; weights as the pipeline's (uniform).
+    // they never coincide with the pipeline's passes 0 and 1; weights as the pipeline's.
     std::vector<double> visible(w * h, 0.0), total(w * h, 0.0);
     const std::uint32_t chunk = std::max<std::uint32_t>(16, std::min<std::uint32_t>(256, spp / 16));
     for (std::uint32_t done = 0, pass = 0; done < spp; done += chunk, ++pass) {
@@ -253,7 +263,7 @@ aaf::image<float> reference_visibility(const scene& s, const gbuffer_images& g, 
                     double vis = 0, tot = 0;
                     for (const glm::vec2& u : uv) {
                         const glm::vec3 yl = s.light.point(u.x, u.y);
-                        const float wgt = s.light.sample_weight(aaf::light_weighting::uniform, p, nrm, yl);
+                        const float wgt = s.light.sample_weight(weighting, p, nrm, yl);
                         if (!(wgt > 0.0f)) continue;
                         const glm::vec3 to = yl - origin;
                         const float len = glm::length(to);
@@ -360,6 +370,7 @@ int run(const options& opt) {
     settings.sampling.initial_samples = s.aaf.initial_samples;
     settings.sampling.max_samples = s.aaf.max_samples;
     settings.sampling.frame_seed = opt.seed;
+    settings.sampling.weighting = opt.weighting;
     settings.filter.space = opt.space;
     settings.radiance = s.radiance;
     const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{g.positions.cview(), g.normals.cview(),
@@ -379,11 +390,21 @@ int run(const options& opt) {
                       : aaf::render_frame(gb, s.light, bvh, {filtered.view()}, ws, settings, pool);
 
     const aaf::image<float> noisy = displayable(ws.raw_visibility, g);
+    // The plain baseline: stratified Monte Carlo with the same number of rays spread evenly over the pixels.
+    const auto equal_spp = static_cast<std::uint32_t>(
+        std::ceil(static_cast<double>(report.rays()) / static_cast<double>(std::max<std::size_t>(g.surfaces, 1))));
+    aaf::image<aaf::occlusion_stats<float>> mc_stats(w, h);
+    aaf::sampling_settings mc_sampling = settings.sampling;
+    mc_sampling.initial_samples = mc_sampling.max_samples = std::max<std::uint32_t>(equal_spp, 1);
+    aaf::gather_occlusion(gb, s.light, bvh, mc_sampling, 500, mc_sampling.initial_samples, mc_stats.view(), {}, pool);
+    aaf::image<float> mc_raw(w, h);
+    for (std::size_t i = 0; i < mc_raw.size(); ++i) mc_raw.data()[i] = mc_stats.data()[i].visibility();
+    const aaf::image<float> equal_rays = displayable(mc_raw, g);
     std::optional<aaf::image<float>> reference;
     bool from_cache = false;
     double reference_ms = 0;
     if (opt.reference)
-        reference = displayable(reference_visibility(s, g, bvh, opt.reference_spp, opt.cache, pool, from_cache, reference_ms), g);
+        reference = displayable(reference_visibility(s, g, bvh, opt.reference_spp, opt.weighting, opt.cache, pool, from_cache, reference_ms), g);
 
     // Pictures: shaded = albedo × (ambient + exposure · E · visibility), gamma 2.2; exposure from the 95th
     // percentile of E so the lit floor is near white whatever the light's radiance.
@@ -408,10 +429,12 @@ int run(const options& opt) {
     pictures.gray("visibility-noisy.png", noisy);
     pictures.gray("visibility-filtered.png", filtered);
     aaf::image<aaf::rgb8> rgb(w, h);
-    double rmse_noisy = std::numeric_limits<double>::quiet_NaN(), rmse_filtered = rmse_noisy;
+    pictures.gray("equal-rays.png", shade(equal_rays));
+    double rmse_noisy = std::numeric_limits<double>::quiet_NaN(), rmse_filtered = rmse_noisy, rmse_equal = rmse_noisy;
     if (reference) {
         pictures.gray("reference.png", shade(*reference));
         pictures.gray("visibility-reference.png", *reference);
+        rmse_equal = aaf::difference_image<float>(equal_rays.cview(), reference->cview(), rgb.view(), 0.1);
         rmse_noisy = aaf::difference_image<float>(noisy.cview(), reference->cview(), rgb.view(), 0.1);
         pictures.rgb("error-noisy.png", rgb);
         rmse_filtered = aaf::difference_image<float>(filtered.cview(), reference->cview(), rgb.view(), 0.1);
@@ -452,12 +475,17 @@ int run(const options& opt) {
                 static_cast<double>(report.rays()) / pixels, static_cast<double>(report.initial_rays) / pixels,
                 static_cast<double>(report.adaptive_rays) / pixels,
                 static_cast<double>(report.rays()) / (report.initial_ms + report.adaptive_ms) / 1000.0);
-    if (reference)
-        std::printf("  RMSE of visibility vs the reference: unfiltered %.4f, aaf %.4f%s\n", rmse_noisy, rmse_filtered,
-                    rmse_filtered > 0 ? (" (" + std::to_string(rmse_noisy / rmse_filtered).substr(0, 4) + "x lower)").c_str() : "");
+    if (reference) {
+        const auto ratio = [](double a, double b) { return b > 0 ? a / b : std::numeric_limits<double>::quiet_NaN(); };
+        std::printf("  RMSE of visibility vs the reference:\n");
+        std::printf("    stratified MC, %u rays in every pixel       %.4f\n", equal_spp, rmse_equal);
+        std::printf("    aaf's adaptive samples, unfiltered         %.4f\n", rmse_noisy);
+        std::printf("    aaf, filtered                              %.4f  (%.2fx below equal-ray MC, %.2fx below unfiltered)\n",
+                    rmse_filtered, ratio(rmse_equal, rmse_filtered), ratio(rmse_noisy, rmse_filtered));
+    }
     std::printf("  beta %.2g..%.2g px, samples per pixel %.0f..%.0f\n", std::pow(10.0, beta_range.lo), std::pow(10.0, beta_range.hi),
                 spp_range.lo, spp_range.hi);
-    std::printf("pictures in %s: noisy filtered%s visibility-* beta spp d2min d2max (.png); total %.1f s\n",
+    std::printf("pictures in %s: noisy filtered equal-rays%s visibility-* beta spp d2min d2max (.png); total %.1f s\n",
                 fs::absolute(opt.out).string().c_str(), reference ? " reference error error-noisy" : "", ms_since(t_start) / 1000.0);
     return 0;
 }

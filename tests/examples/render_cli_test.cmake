@@ -68,7 +68,7 @@ if(CASE STREQUAL "ok")
     if(NOT rc EQUAL 0)
         message(FATAL_ERROR "aaf-render failed (${rc}): ${stderr}")
     endif()
-    foreach(png noisy filtered reference error error-noisy visibility-noisy visibility-filtered visibility-reference
+    foreach(png noisy filtered equal-rays reference error error-noisy visibility-noisy visibility-filtered visibility-reference
                 beta spp d2min d2max)
         if(NOT EXISTS "${out}/${png}.png")
             message(FATAL_ERROR "missing picture ${png}.png in ${out}")
