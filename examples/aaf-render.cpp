@@ -58,6 +58,8 @@ struct options {
     bool first_hit = false;
     std::uint32_t seed = 0;
     aaf::light_weighting weighting = aaf::light_weighting::uniform;
+    float scale = 1;            // the whole scene scaled by this (tests scale independence)
+    double origin_offset = -1;  // < 0: automatic (aaf's default); >= 0: a fixed epsilon along the normal
 };
 
 const char* const help_text =
@@ -82,6 +84,9 @@ const char* const help_text =
     "  --weighting uniform|gaussian  light samples weighted uniformly (a physical rectangle) or by the\n"
     "                        authors' Gaussian; the reference uses the same weighting [uniform]\n"
     "  --seed N              frame seed [0]\n"
+    "  --scale S             scale the whole scene (geometry, light, camera) by S, e.g. 1e-3 or 1e4 [1]\n"
+    "  --ray-offset auto|E   shadow-ray origins moved off the surface automatically (ULP offsetting), or\n"
+    "                        by a fixed epsilon E in world units, to compare with hand-set epsilons [auto]\n"
     "  --help                this text\n"
     "Large optional meshes (the sports car) are found through the AAF_SCENES_DIR environment variable.\n";
 
@@ -138,6 +143,23 @@ options parse(int argc, char** argv) {
             else throw usage_error("--weighting must be uniform or gaussian (got '" + v + "')");
         }
         else if (a == "--seed") o.seed = parse_count(a, value(), 0, 0xffffffffu);
+        else if (a == "--scale") {
+            const std::string v = value();
+            char* end = nullptr;
+            const float x = std::strtof(v.c_str(), &end);
+            if (v.empty() || *end != '\0' || !(x > 0.0f) || !std::isfinite(x)) throw usage_error("--scale must be a number > 0 (got '" + v + "')");
+            o.scale = x;
+        } else if (a == "--ray-offset") {
+            const std::string v = value();
+            if (v == "auto") o.origin_offset = -1;
+            else {
+                char* end = nullptr;
+                const double e = std::strtod(v.c_str(), &end);
+                if (v.empty() || *end != '\0' || !(e >= 0.0) || !std::isfinite(e))
+                    throw usage_error("--ray-offset must be auto or a distance >= 0 (got '" + v + "')");
+                o.origin_offset = e;
+            }
+        }
         else throw usage_error("unknown option '" + a + "' (see --help)");
     }
     if (o.cache.empty()) o.cache = o.out / "cache";
@@ -209,7 +231,7 @@ struct fnv1a {
     void add_value(const T& v) { add(&v, sizeof(T)); }
 };
 
-std::uint64_t reference_key(const scene& s, std::uint32_t spp, aaf::light_weighting weighting) {
+std::uint64_t reference_key(const scene& s, std::uint32_t spp, aaf::light_weighting weighting, double origin_offset) {
     fnv1a f;
     const std::uint32_t format = 2;  // bump when the reference's meaning changes
     f.add_value(format);
@@ -221,18 +243,20 @@ std::uint64_t reference_key(const scene& s, std::uint32_t spp, aaf::light_weight
     f.add_value(s.height);
     f.add_value(spp);
     f.add_value(weighting);
+    f.add_value(origin_offset);
     return f.h;
 }
 
 /// The converged reference: plain stratified Monte Carlo with `spp` samples per pixel (in chunks, with a
 /// progress bar and an ETA on stderr), cached on disk under `cache` by a hash of everything it depends on.
 aaf::image<float> reference_visibility(const scene& s, const gbuffer_images& g, const aaf_examples::bvh& bvh,
-                                       std::uint32_t spp, aaf::light_weighting weighting, const fs::path& cache,
+                                       std::uint32_t spp, aaf::light_weighting weighting, double origin_offset,
+                                       const fs::path& cache,
                                        aaf::thread_pool& pool, bool& from_cache, double& ms) {
     const auto t0 = clock_type::now();
     const std::size_t w = s.width, h = s.height;
     char name[64];
-    std::snprintf(name, sizeof name, "reference-%016" PRIx64 ".f32", reference_key(s, spp, weighting));
+    std::snprintf(name, sizeof name, "reference-%016" PRIx64 ".f32", reference_key(s, spp, weighting, origin_offset));
     const fs::path file = cache / name;
     aaf::image<float> ref(w, h);
     if (std::ifstream in{file, std::ios::binary}) {
@@ -259,7 +283,9 @@ aaf::image<float> reference_visibility(const scene& s, const gbuffer_images& g, 
                     if (!std::isfinite(p.x)) continue;
                     aaf::generate_samples<float>(aaf::sample_pattern::stratified,
                                                  {static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y), 1000 + pass, 0, 0}, uv);
-                    const glm::vec3 origin = aaf::offset_ray_origin(p, glm::dot(nrm, s.light.center() - p) >= 0.0f ? nrm : -nrm);
+                    const glm::vec3 towards = glm::dot(nrm, s.light.center() - p) >= 0.0f ? nrm : -nrm;
+                    const glm::vec3 origin = origin_offset < 0 ? aaf::offset_ray_origin(p, towards)
+                                                               : p + static_cast<float>(origin_offset) * towards;
                     double vis = 0, tot = 0;
                     for (const glm::vec2& u : uv) {
                         const glm::vec3 yl = s.light.point(u.x, u.y);
@@ -351,6 +377,11 @@ int run(const options& opt) {
     if (opt.mu) s.aaf.mu = *opt.mu;
     if (opt.initial_samples) s.aaf.initial_samples = *opt.initial_samples;
     if (opt.max_samples) s.aaf.max_samples = *opt.max_samples;
+    if (opt.scale != 1.0f) {
+        for (glm::vec3& v : s.vertices) v *= opt.scale;
+        s.light.corner *= opt.scale, s.light.edge_u *= opt.scale, s.light.edge_v *= opt.scale;
+        s.view.position *= opt.scale, s.view.target *= opt.scale;
+    }
     if (s.aaf.max_samples < s.aaf.initial_samples)
         throw usage_error("--max-samples (" + std::to_string(s.aaf.max_samples) + ") is below the initial samples (" +
                           std::to_string(s.aaf.initial_samples) + ")");
@@ -371,6 +402,7 @@ int run(const options& opt) {
     settings.sampling.max_samples = s.aaf.max_samples;
     settings.sampling.frame_seed = opt.seed;
     settings.sampling.weighting = opt.weighting;
+    settings.sampling.origin_offset = opt.origin_offset;
     settings.filter.space = opt.space;
     settings.radiance = s.radiance;
     const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{g.positions.cview(), g.normals.cview(),
@@ -404,7 +436,7 @@ int run(const options& opt) {
     bool from_cache = false;
     double reference_ms = 0;
     if (opt.reference)
-        reference = displayable(reference_visibility(s, g, bvh, opt.reference_spp, opt.weighting, opt.cache, pool, from_cache, reference_ms), g);
+        reference = displayable(reference_visibility(s, g, bvh, opt.reference_spp, opt.weighting, opt.origin_offset, opt.cache, pool, from_cache, reference_ms), g);
 
     // Pictures: shaded = albedo × (ambient + exposure · E · visibility), gamma 2.2; exposure from the 95th
     // percentile of E so the lit floor is near white whatever the light's radiance.

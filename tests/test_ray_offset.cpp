@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: MIT
 // ray_offset.hpp: Wächter & Binder's robust ray-origin offset (Ray Tracing Gems ch. 6, FORMULAS.md §6).
 // The offset point is always on the normal's side, the move is a fixed number of ULPs (so it scales with
-// |p|), the float_scale fallback is used near the origin, and non-finite components pass through.
+// |p|), near the origin the step is 256 ULPs of the largest coordinate, and non-finite components pass through.
 
 #include <catch2/catch.hpp>
+
+#include <algorithm>
 
 #include <bit>
 #include <cmath>
@@ -31,12 +33,9 @@ std::int64_t ulp_steps(T a, T b) {
     return ia > ib ? ia - ib : ib - ia;
 }
 
-// RTG ch. 6 constants (FORMULAS.md §6). double keeps the 1/32 threshold and the 256-ULP step; its
-// near-origin fallback is documented in ray_offset.hpp as 2^-16 · 2^-29.
+// RTG ch. 6 constants (FORMULAS.md §6): the 1/32 threshold and the 256-ULP step, in float and double.
 template <class T>
 constexpr T origin_threshold = T(1.0 / 32.0);
-template <class T>
-constexpr T fallback_scale = sizeof(T) == 4 ? T(1.0 / 65536.0) : T(1.0 / 65536.0 / 536870912.0);
 
 template <class T>
 std::vector<glm::vec<3, T>> test_normals() {
@@ -98,7 +97,15 @@ TEMPLATE_TEST_CASE("away from the origin the move is trunc(256 |n_i|) ULPs: tiny
             }
 }
 
-TEMPLATE_TEST_CASE("near the origin the float_scale fallback is used", "[offset]", float, double) {
+/// aaf's near-origin step (ray_offset.hpp): 256 ULPs of the point's largest coordinate, with a floor.
+template <class T>
+T fallback_step(const glm::vec<3, T>& p) {
+    const T largest = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+    const T floor = std::numeric_limits<T>::min() / std::numeric_limits<T>::epsilon();
+    return T(256) * std::numeric_limits<T>::epsilon() * std::max(largest, floor);
+}
+
+TEMPLATE_TEST_CASE("near the origin the step is 256 ULPs of the largest coordinate", "[offset]", float, double) {
     using T = TestType;
     using v3 = glm::vec<3, T>;
     const std::vector<v3> normals = test_normals<T>();
@@ -110,18 +117,26 @@ TEMPLATE_TEST_CASE("near the origin the float_scale fallback is used", "[offset]
                 for (int i = 0; i < 3; ++i) {
                     REQUIRE(std::abs(p[i]) < origin_threshold<T>);
                     INFO("p_i = " << p[i] << " n_i = " << n[i]);
-                    CHECK(q[i] == p[i] + fallback_scale<T> * n[i]);
+                    CHECK(q[i] == p[i] + fallback_step(p) * n[i]);
                 }
                 CHECK(glm::dot(glm::dvec3(q) - glm::dvec3(p), glm::dvec3(n)) > 0.0);
             }
+    // At unit magnitude 256 ULPs of 1 (2^-15 in float, twice Wächter & Binder's fixed 2^-16); it scales with
+    // the point, so a scene a few 1e-4 wide is not offset by more than its own features.
+    CHECK(aaf::offset_ray_origin(v3(1, 0, 0), v3(0, 1, 0)).y == T(256) * std::numeric_limits<T>::epsilon());
+    if constexpr (sizeof(T) == 4) CHECK(aaf::offset_ray_origin(v3(1, 0, 0), v3(0, 1, 0)).y == T(1.0 / 32768.0));
+    const T tiny = aaf::offset_ray_origin(v3(T(1e-4), 0, 0), v3(0, 1, 0)).y;
+    CHECK(tiny == T(256) * std::numeric_limits<T>::epsilon() * T(1e-4));
+    CHECK(tiny < T(1e-8));
     // The threshold itself is on the ULP side; just below it, the fallback.
     const v3 n(0, 1, 0);
     const T at = origin_threshold<T>;
     const T below = std::nextafter(at, T(0));
     CHECK(ulp_steps(at, aaf::offset_ray_origin(v3(0, at, 0), n).y) == 256);
-    CHECK(aaf::offset_ray_origin(v3(0, below, 0), n).y == below + fallback_scale<T>);
-    CHECK(aaf::offset_ray_origin(v3(0, T(0), 0), n).y == fallback_scale<T>);
-    CHECK(aaf::offset_ray_origin(v3(0, T(-0.0), 0), -n).y == -fallback_scale<T>);
+    CHECK(aaf::offset_ray_origin(v3(0, below, 0), n).y == below + fallback_step(v3(0, below, 0)));
+    CHECK(aaf::offset_ray_origin(v3(0, T(0), 0), n).y == fallback_step(v3(0, 0, 0)));
+    CHECK(aaf::offset_ray_origin(v3(0, T(0), 0), n).y > std::numeric_limits<T>::min());  // not denormal
+    CHECK(aaf::offset_ray_origin(v3(0, T(-0.0), 0), -n).y == -fallback_step(v3(0, 0, 0)));
 }
 
 TEMPLATE_TEST_CASE("non-finite components pass through unchanged", "[offset]", float, double) {

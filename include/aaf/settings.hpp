@@ -43,6 +43,10 @@ struct sampling_settings {
     light_weighting weighting = light_weighting::uniform;  ///< how samples are averaged
     std::uint32_t frame_seed = 0;          ///< decorrelates frames; same seed ⇒ same image
     std::uint32_t light_index = 0;         ///< identifies the light in the sample key (several lights)
+    /// Shadow-ray origins: < 0 (default) moves each origin off its surface by a few ULPs along the normal
+    /// (Wächter–Binder; right at every scene scale, nothing to tune); >= 0 moves it by this fixed distance
+    /// in world units instead (0 = not at all). The fixed form exists to compare against hand-set epsilons.
+    double origin_offset = -1;
 };
 
 /// Where the filter measures the distance between two pixels (FORMULAS.md §1.11).
@@ -96,6 +100,8 @@ inline void validate(const sampling_settings& s, const char* function = "validat
             "must be in [1, 4096] (got " + std::to_string(s.initial_samples) + ")");
     require(s.max_samples >= s.initial_samples && s.max_samples <= 1u << 20, function, "settings.sampling.max_samples",
             "must be in [initial_samples, 2^20] (got " + std::to_string(s.max_samples) + ")");
+    require(std::isfinite(s.origin_offset), function, "settings.sampling.origin_offset",
+            "must be finite (got " + std::to_string(s.origin_offset) + ")");
 }
 
 template <class T>
