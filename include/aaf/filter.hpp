@@ -35,6 +35,37 @@ template <class T>
     return r < static_cast<T>(s.max_radius) ? static_cast<std::size_t>(r) : s.max_radius;
 }
 
+/// For k = 1..radius: calls `step(k)`, then `f(k, nx, ny, v)` for the neighbours at distance k along `Dir`
+/// from (x, y) (`pos` is x or y, `extent` the width or height) whose value v is finite and which the guides
+/// accept. The one definition of "a tap", shared by the filter pass (whose `step` advances its weight
+/// recurrence once per k, in the hot loop) and the non-finite-centre fallback.
+template <pass_direction Dir, class T, class G, class Step, class F>
+void for_each_accepted_tap(const_image_view<T> src, const G& g, const guide_center<T, G>& gc, std::size_t x, std::size_t y,
+                           std::size_t pos, std::size_t extent, std::size_t radius, T cos_threshold, Step&& step,
+                           F&& f) noexcept {
+    for (std::size_t k = 1; k <= radius; ++k) {
+        step(k);
+        for (int side = -1; side <= 1; side += 2) {
+            if (side < 0 ? k > pos : pos + k >= extent) continue;
+            const std::size_t j = side < 0 ? pos - k : pos + k;
+            const std::size_t nx = Dir == pass_direction::horizontal ? j : x;
+            const std::size_t ny = Dir == pass_direction::horizontal ? y : j;
+            const T v = src(nx, ny);
+            if (!std::isfinite(v) || !gc.accepts(g, nx, ny, cos_threshold)) continue;
+            f(k, nx, ny, v);
+        }
+    }
+}
+
+/// Squared distance between the centre `p` and neighbour (nx, ny), projected on the light plane (§1.11).
+template <class T, class G>
+[[nodiscard]] T light_plane_distance2(const G& g, std::size_t nx, std::size_t ny, const glm::vec<3, T>& p,
+                                      const glm::vec<3, T>& light_normal) noexcept {
+    const glm::vec<3, T> dp = g.positions(nx, ny) - p;
+    const T along = glm::dot(dp, light_normal);
+    return std::max(glm::dot(dp, dp) - along * along, T(0));  // NaN stays NaN (std::max keeps its first argument)
+}
+
 /// The result of a pass for a non-finite centre: the Gaussian average of its accepted finite neighbours.
 /// Such a centre has no weight of its own, so the result is a ratio of neighbour weights only, and for a
 /// narrow kernel every exp(−e) can underflow to 0 in T (e.g. β/d < 0.07 px in float: exp(−1/(2·0.07²)) = 0)
@@ -46,24 +77,15 @@ template <pass_direction Dir, offset_space Space, class T, class G>
                                           std::size_t y, std::size_t pos, std::size_t extent, std::size_t radius, T a,
                                           T inv_two_beta2, T cos_threshold, T centre) noexcept {
     const auto for_each_tap = [&](auto&& f) {
-        for (std::size_t k = 1; k <= radius; ++k)
-            for (int side = -1; side <= 1; side += 2) {
-                if (side < 0 ? k > pos : pos + k >= extent) continue;
-                const std::size_t j = side < 0 ? pos - k : pos + k;
-                const std::size_t nx = Dir == pass_direction::horizontal ? j : x;
-                const std::size_t ny = Dir == pass_direction::horizontal ? y : j;
-                const T v = src(nx, ny);
-                if (!std::isfinite(v) || !gc.accepts(g, nx, ny, cos_threshold)) continue;
-                T e;
-                if constexpr (Space == offset_space::light_plane) {
-                    const glm::vec<3, T> dp = g.positions(nx, ny) - p;
-                    const T along = glm::dot(dp, light_normal);
-                    e = std::max(glm::dot(dp, dp) - along * along, T(0)) * inv_two_beta2;
-                } else {
-                    e = static_cast<T>(k) * static_cast<T>(k) * a;
-                }
-                if (!std::isnan(e)) f(e, v);  // NaN position
-            }
+        for_each_accepted_tap<Dir>(src, g, gc, x, y, pos, extent, radius, cos_threshold, [](std::size_t) {},
+                                   [&](std::size_t k, std::size_t nx, std::size_t ny, T v) {
+                                       T e;
+                                       if constexpr (Space == offset_space::light_plane)
+                                           e = light_plane_distance2(g, nx, ny, p, light_normal) * inv_two_beta2;
+                                       else
+                                           e = static_cast<T>(k) * static_cast<T>(k) * a;
+                                       if (!std::isnan(e)) f(e, v);  // NaN position
+                                   });
     };
     T e_min = std::numeric_limits<T>::infinity();
     for_each_tap([&](T e, T) { e_min = std::min(e_min, e); });
@@ -125,30 +147,23 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             const T a = T(1) / (T(2) * beta_px * beta_px);
             T wk = T(1), mk = std::exp(-a);
             const T q = mk * mk;
-            for (std::size_t k = 1; k <= radius; ++k) {
-                if constexpr (Space == offset_space::image) {
-                    wk *= mk;
-                    mk *= q;
-                }
-                for (int side = -1; side <= 1; side += 2) {
-                    if (side < 0 ? k > pos : pos + k >= extent) continue;
-                    const std::size_t j = side < 0 ? pos - k : pos + k;
-                    const std::size_t nx = Dir == pass_direction::horizontal ? j : x;
-                    const std::size_t ny = Dir == pass_direction::horizontal ? y : j;
-                    const T v = src(nx, ny);
-                    if (!std::isfinite(v) || !gc.accepts(g, nx, ny, cos_threshold)) continue;
+            for_each_accepted_tap<Dir>(
+                src, g, gc, x, y, pos, extent, radius, cos_threshold,
+                [&](std::size_t) {
+                    if constexpr (Space == offset_space::image) {
+                        wk *= mk;
+                        mk *= q;
+                    }
+                },
+                [&](std::size_t, std::size_t nx, std::size_t ny, T v) {
                     T weight = wk;
                     if constexpr (Space == offset_space::light_plane) {
-                        const glm::vec<3, T> dp = g.positions(nx, ny) - p;
-                        const T along = glm::dot(dp, light_normal);
-                        const T r2 = glm::dot(dp, dp) - along * along;
-                        weight = std::exp(-std::max(r2, T(0)) * inv_two_beta2);
-                        if (!std::isfinite(weight)) continue;  // NaN position
+                        weight = std::exp(-light_plane_distance2(g, nx, ny, p, light_normal) * inv_two_beta2);
+                        if (!std::isfinite(weight)) return;  // NaN position
                     }
                     sum += weight * v;
                     wsum += weight;
-                }
-            }
+                });
             dst(x, y) = wsum > T(0) ? sum / wsum : centre;
         }
     }
