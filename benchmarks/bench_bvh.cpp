@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: MIT
 // The examples' BVH (examples/common/bvh.hpp): build time, and shadow rays per second for the three tracer
-// queries (occluder_span, nearest_occluder, occluded) on 1 and 2 threads, on real meshes: the bunny, the
-// plant and the bench from assets/meshes, and the 300k-triangle sports car when it is available (it is not
-// in the repository: AAF_SPORTSCAR=<file>, or sportsCar.obj in $AAF_SCENES_DIR, default
-// <source>/../shared/scenes; the car's benchmarks are skipped with an error otherwise).
+// queries (occluder_span, nearest_occluder, occluded) on 1 and 2 threads, on every shared mesh: the bunny,
+// plant, bench, window blinds and Cornell box from assets/meshes, and the 346k-triangle Armadillo and the
+// 300k-triangle sports car when they are available (they are not in the repository: AAF_SPORTSCAR=<file>,
+// or the file in $AAF_SCENES_DIR, default <source>/../shared/scenes; skipped with an error otherwise).
 //
 // Segments run from random points on a ground plane under the mesh (its lowest point) to random points on
 // a rectangular light above it, half the mesh's footprint wide, one mesh height above its top; the ground
@@ -37,10 +37,13 @@ namespace fs = std::filesystem;
 using aaf_examples::bvh;
 using segment = aaf::shadow_segment<float>;
 
-/// Where a benchmark mesh may be, in order of preference (only the car has more than one place).
+/// The shared meshes that are too large for the repository: used when present, skipped otherwise.
+bool optional_mesh(const std::string& name) { return name == "sportsCar.obj" || name == "Armadillo.ply"; }
+
+/// Where a benchmark mesh may be, in order of preference (only the optional ones have more than one place).
 std::vector<fs::path> mesh_candidates(const std::string& name) {
     const fs::path assets = fs::path(AAF_SOURCE_DIR) / "assets" / "meshes";
-    if (name != "sportsCar.obj") return {assets / name};
+    if (!optional_mesh(name)) return {assets / name};
     std::vector<fs::path> candidates;
     if (const char* file = std::getenv("AAF_SPORTSCAR")) candidates.emplace_back(file);
     candidates.push_back(assets / name);
@@ -68,7 +71,7 @@ const scene& get_scene(const std::string& name) {
     if (path.empty()) {
         s.error = name + " not found; tried:";
         for (const fs::path& p : mesh_candidates(name)) s.error += " " + p.string();
-        if (name == "sportsCar.obj") s.error += " (set AAF_SPORTSCAR=<file> or AAF_SCENES_DIR=<dir>)";
+        if (optional_mesh(name)) s.error += " (set AAF_SCENES_DIR=<dir>" + std::string(name == "sportsCar.obj" ? " or AAF_SPORTSCAR=<file>" : "") + ")";
         return s;
     }
     try {
@@ -170,13 +173,16 @@ void BM_bvh_shadow(benchmark::State& state, const std::string& name, query q) {
 }
 
 void register_all() {
-    for (const char* mesh : {"bun_zipper.ply", "sportsCar.obj"})
+    // Every mesh of ../shared/scenes (README: "report build time and shadow rays per second on each").
+    constexpr const char* meshes[] = {"bun_zipper.ply", "Armadillo.ply", "plant.obj", "bench.obj", "window-blinds.obj",
+                                      "CornellBox-Original.obj", "sportsCar.obj"};
+    for (const char* mesh : meshes)
         benchmark::RegisterBenchmark((std::string("BM_bvh_build/") + mesh).c_str(), BM_bvh_build, std::string(mesh))
             ->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime();
     const std::pair<const char*, query> queries[] = {{"occluder_span", query::occluder_span},
                                                      {"nearest_occluder", query::nearest_occluder},
                                                      {"occluded", query::occluded}};
-    for (const char* mesh : {"bun_zipper.ply", "plant.obj", "bench.obj", "sportsCar.obj"})
+    for (const char* mesh : meshes)
         for (const auto& [qname, q] : queries)
             benchmark::RegisterBenchmark((std::string("BM_bvh_") + qname + "/" + mesh).c_str(), BM_bvh_shadow,
                                          std::string(mesh), q)
