@@ -15,7 +15,9 @@
 // * occluder at the light   → slopes capped at max_slope by slopes(), everything finite;
 // * point light, σ = 0      → Ω* pixel-limited (β as at contact); n = 1 (no penumbra: one sample is exact);
 // * zero pixel size, d = 0  → pixel bound +∞, Ω* light-limited; n uses d·Ω* → 0;
-// * NaN inputs              → treated as "no occluder" (NaN s1, s2, σ or d, and a NaN Ω* given to filter_width).
+// * NaN inputs              → treated as "no occluder" (NaN s1, s2, σ or d, and a NaN Ω* given to filter_width);
+// * indeterminate n         → 0, as for "no occluder" (∞/∞ or ∞·0 inside n: σ = d = +∞ together, or s1 = +∞
+//                             with the bandwidth terms underflowed to 0); target_samples gives the minimum.
 
 #include <algorithm>
 #include <cmath>
@@ -116,7 +118,8 @@ template <class T>
         const T light_term = pixel_size > T(0) ? safe_div(f.mu * pixel_size, sigma * s.s2) : T(0);
         const T a = T(1) + f.mu * ratio;
         const T b = light_term + pixel_term;
-        return T(4) * a * a * b * b;
+        const T n = T(4) * a * a * b * b;
+        return std::isnan(n) ? T(0) : n;
     }
     // Authors: 4 (α/(1+s2) + dΩ*)² (1 + σ min(s1Ω*, s1/(d(1+s1))))², with dΩ* and σ s1Ω* expanded so that
     // d = 0 and s2 = 0 stay defined.
@@ -125,7 +128,8 @@ template <class T>
     const T wedge = std::min(sigma_s1_omega, safe_div(sigma * s.s1, pixel_size * (T(1) + s.s1)));
     const T a = pixel_term + d_omega;
     const T b = T(1) + wedge;
-    return T(4) * a * a * b * b;
+    const T n = T(4) * a * a * b * b;
+    return std::isnan(n) ? T(0) : n;
 }
 
 /// Rounds n up and clamps it to [minimum, maximum]; NaN gives `minimum`.
