@@ -96,7 +96,10 @@ template <class T>
     const T floor_d2 = s.d1 / (T(1) + max_slope);
     const T d2min = std::clamp(s.d2min, floor_d2, s.d1);
     const T d2max = std::clamp(s.d2max, d2min, s.d1);
-    return {s.d1 / d2min - T(1), s.d1 / d2max - T(1)};
+    // The floor underflows to 0 for a denormal d1 (d1 < max_slope · denorm_min), and −0 passes a clamp to +0:
+    // a d2 that is still not positive is at the light, the cap.
+    const T s1 = d2min > T(0) ? std::min(s.d1 / d2min - T(1), max_slope) : max_slope;
+    return {s1, d2max > T(0) ? std::min(s.d1 / d2max - T(1), s1) : s1};
 }
 
 }  // namespace v0
