@@ -21,6 +21,8 @@ inline namespace v0 {
 ///
 /// `image_view<const T>` is the read-only flavour; `image_view<T>` converts to it implicitly.
 /// An empty view (null data, 0×0) stands for "buffer not provided" where an argument is optional.
+/// Pixels are accessed as `T&`, so the data pointer and both strides must be multiples of `alignof(T)`;
+/// the entry points reject a misaligned view with aaf::invalid_argument.
 /// Views are trivially copyable; copying a view never copies pixels.
 template <class T>
 class image_view {
@@ -103,7 +105,19 @@ using const_image_view = image_view<const T>;
 
 namespace detail {
 
-/// Throws unless `view` is `w`×`h` and has non-null data. `function` and `name` go into the message.
+/// Throws unless every pixel `view` reaches is aligned for its type: pixels are accessed as `T&`, so a
+/// misaligned data pointer or stride would be undefined behaviour (UBSan: "misaligned address").
+template <class T>
+void require_aligned(const char* function, const char* name, const image_view<T>& view) {
+    constexpr std::size_t a = alignof(typename image_view<T>::value_type);
+    const bool ok = reinterpret_cast<std::uintptr_t>(view.bytes()) % a == 0 &&
+                    (view.width() <= 1 || view.pixel_stride() % a == 0) && (view.height() <= 1 || view.row_stride() % a == 0);
+    if (!ok)
+        throw_invalid(function, std::string("`") + name + "` is not aligned for its pixel type (data, pixel stride and row "
+                                                          "stride must be multiples of " + std::to_string(a) + " bytes)");
+}
+
+/// Throws unless `view` is `w`×`h` and has non-null, aligned data. `function` and `name` go into the message.
 template <class T>
 void require_size(const char* function, const char* name, const image_view<T>& view, std::size_t w, std::size_t h) {
     if (view.bytes() == nullptr)
@@ -114,6 +128,7 @@ void require_size(const char* function, const char* name, const image_view<T>& v
                                     std::to_string(h));
     if (view.pixel_stride() < sizeof(typename image_view<T>::value_type) && view.width() > 1)
         throw_invalid(function, std::string("`") + name + "` has a pixel stride smaller than its pixel type");
+    require_aligned(function, name, view);
 }
 
 /// Like require_size, but an empty view is accepted (the optional buffer was not provided).
@@ -124,13 +139,14 @@ void require_size_or_empty(const char* function, const char* name, const image_v
     require_size(function, name, view, w, h);
 }
 
-/// Throws unless `view` is non-empty.
+/// Throws unless `view` is non-empty and aligned.
 template <class T>
 void require_nonempty(const char* function, const char* name, const image_view<T>& view) {
     if (view.bytes() == nullptr) throw_invalid(function, std::string("`") + name + "` has null data");
     if (view.width() == 0 || view.height() == 0)
         throw_invalid(function, std::string("`") + name + "` has zero size (" + std::to_string(view.width()) + "x" +
                                     std::to_string(view.height()) + ")");
+    require_aligned(function, name, view);
 }
 
 }  // namespace detail
