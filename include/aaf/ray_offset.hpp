@@ -68,7 +68,9 @@ template <class T>
             out[i] = pc + fallback_step * nc;
             continue;
         }
-        const auto of_i = static_cast<I>(C::int_scale * nc);
+        // Normals are unit vectors; clamping keeps a longer one (user data) at 256 ULPs instead of overflowing
+        // the float-to-integer conversion (undefined behaviour for |256·n_c| beyond the integer's range).
+        const auto of_i = static_cast<I>(C::int_scale * std::clamp(nc, T(-1), T(1)));
         const I bits = std::bit_cast<I>(pc);
         out[i] = std::bit_cast<T>(static_cast<I>(pc < T(0) ? bits - of_i : bits + of_i));
     }
