@@ -63,31 +63,52 @@ struct area_light {
 
     /// Weight of light point `y` for a receiver at `p` with unit normal `n`, under `weighting`.
     /// Zero when `y` is below the receiver's horizon or `p` is behind a one-sided light.
-    [[nodiscard]] T sample_weight(light_weighting weighting, const vec3& p, const vec3& n, const vec3& y) const noexcept {
-        const vec3 to_light = y - p;
+    /// (Computes the light's constants each call; light_sample_frame keeps them for many samples.)
+    [[nodiscard]] T sample_weight(light_weighting weighting, const vec3& p, const vec3& n, const vec3& y) const noexcept;
+};
+
+/// What weighting samples of `light` needs, computed once instead of per sample (the normal alone costs a
+/// cross product and a square root): the one definition of the sample weights.
+template <class T>
+struct light_sample_frame {
+    glm::vec<3, T> normal, center;
+    T inv_two_sigma2 = 0;
+    bool two_sided = false;
+    light_weighting weighting = light_weighting::uniform;
+
+    light_sample_frame(const area_light<T>& light, light_weighting w) noexcept
+        : normal(light.normal()), center(light.center()), two_sided(light.two_sided), weighting(w) {
+        const T s = light.sigma();
+        inv_two_sigma2 = s > T(0) ? T(1) / (T(2) * s * s) : T(0);  // a degenerate light weighs every point 1
+    }
+
+    /// Weight of light point y seen from a receiver with unit normal n, along the unnormalised
+    /// `to_light` = y − receiver. Zero below the horizon or behind a one-sided light.
+    [[nodiscard]] T weight(const glm::vec<3, T>& n, const glm::vec<3, T>& to_light, const glm::vec<3, T>& y) const noexcept {
         const T cos_r = glm::dot(n, to_light);
         if (!(cos_r > T(0))) return T(0);
-        const vec3 ln = normal();
-        const T cos_l_signed = -glm::dot(ln, to_light);
-        if (two_sided ? cos_l_signed == T(0) : !(cos_l_signed > T(0))) return T(0);
+        const T cos_l = -glm::dot(normal, to_light);
+        if (two_sided ? cos_l == T(0) : !(cos_l > T(0))) return T(0);
         switch (weighting) {
             case light_weighting::uniform: return T(1);
             case light_weighting::gaussian: {
-                const T s = sigma();
-                if (!(s > T(0))) return T(1);
-                const vec3 dc = y - center();
-                return std::exp(-glm::dot(dc, dc) / (T(2) * s * s));
+                const glm::vec<3, T> dc = y - center;
+                return std::exp(-glm::dot(dc, dc) * inv_two_sigma2);
             }
             case light_weighting::irradiance: {
-                const T r2 = glm::dot(to_light, to_light);
-                if (!(r2 > T(0))) return T(0);
                 // cosθ_r cosθ_l / r² with both cosines taken from the unnormalised vector: divide by r⁴.
-                return cos_r * std::abs(cos_l_signed) / (r2 * r2);
+                const T r2 = glm::dot(to_light, to_light);
+                return r2 > T(0) ? cos_r * std::abs(cos_l) / (r2 * r2) : T(0);
             }
         }
         return T(0);
     }
 };
+
+template <class T>
+T area_light<T>::sample_weight(light_weighting weighting, const vec3& p, const vec3& n, const vec3& y) const noexcept {
+    return light_sample_frame<T>(*this, weighting).weight(n, y - p, y);
+}
 
 /// Exact unshadowed irradiance at `p` (unit normal `n`) from the light with constant `radiance`
 /// (W·sr⁻¹·m⁻² per unit of your choice): E = radiance · π · F, with F the point-to-polygon form factor

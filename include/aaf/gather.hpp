@@ -67,42 +67,6 @@ void require_light(const char* fn, const area_light<T>& light) {
     if (!(a > T(0))) throw_invalid(fn, "`light` has zero area (its edges are parallel or zero)");
 }
 
-/// What every sample of a frame needs from the light, computed once per call instead of per sample
-/// (the normal alone costs a cross product and a square root). Weights match area_light::sample_weight.
-template <class T>
-struct light_frame {
-    glm::vec<3, T> normal, center;
-    T inv_two_sigma2 = 0;
-    bool two_sided = false;
-    light_weighting weighting = light_weighting::uniform;
-
-    light_frame(const area_light<T>& light, light_weighting w) noexcept
-        : normal(light.normal()), center(light.center()), two_sided(light.two_sided), weighting(w) {
-        const T s = light.sigma();
-        inv_two_sigma2 = s > T(0) ? T(1) / (T(2) * s * s) : T(0);
-    }
-
-    /// Weight of light point y seen from p (unit normal n) along the unnormalised `to_light` = y − p.
-    [[nodiscard]] T weight(const glm::vec<3, T>& n, const glm::vec<3, T>& to_light, const glm::vec<3, T>& y) const noexcept {
-        const T cos_r = glm::dot(n, to_light);
-        if (!(cos_r > T(0))) return T(0);
-        const T cos_l = -glm::dot(normal, to_light);
-        if (two_sided ? cos_l == T(0) : !(cos_l > T(0))) return T(0);
-        switch (weighting) {
-            case light_weighting::uniform: return T(1);
-            case light_weighting::gaussian: {
-                const glm::vec<3, T> dc = y - center;
-                return std::exp(-glm::dot(dc, dc) * inv_two_sigma2);
-            }
-            case light_weighting::irradiance: {
-                const T r2 = glm::dot(to_light, to_light);
-                return r2 > T(0) ? cos_r * std::abs(cos_l) / (r2 * r2) : T(0);
-            }
-        }
-        return T(0);
-    }
-};
-
 /// Reusable per-thread buffers for one pixel's samples.
 template <class T>
 struct pixel_scratch {
@@ -115,7 +79,7 @@ struct pixel_scratch {
 /// Draws `count` samples for pixel (x, y) and adds them to `stats`. Returns the number of rays traced.
 template <class T, class Tracer>
 std::uint64_t gather_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const area_light<T>& light,
-                           const light_frame<T>& frame, const Tracer& tracer, const sampling_settings& s,
+                           const light_sample_frame<T>& frame, const Tracer& tracer, const sampling_settings& s,
                            const sample_key& key, std::uint32_t count, occlusion_stats<T>& stats, pixel_scratch<T>& scratch) {
     scratch.uv.resize(count);
     generate_samples<T>(s.pattern, key, scratch.uv);
@@ -175,7 +139,7 @@ std::uint64_t gather_occlusion(const gbuffer<T, Ids>& gb, const area_light<T>& l
     if (samples_per_pixel > s.max_samples && sample_counts.empty())
         detail::throw_invalid(fn, "`samples_per_pixel` exceeds settings.max_samples");
     std::atomic<std::uint64_t> rays{0};
-    const detail::light_frame<T> frame(light, s.weighting);
+    const light_sample_frame<T> frame(light, s.weighting);
     exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
         detail::pixel_scratch<T> scratch;
         std::uint64_t local = 0;
