@@ -283,9 +283,7 @@ aaf::image<float> reference_visibility(const scene& s, const gbuffer_images& g, 
                     if (!std::isfinite(p.x)) continue;
                     aaf::generate_samples<float>(aaf::sample_pattern::stratified,
                                                  {static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y), 1000 + pass, 0, 0}, uv);
-                    const glm::vec3 towards = glm::dot(nrm, s.light.center() - p) >= 0.0f ? nrm : -nrm;
-                    const glm::vec3 origin = origin_offset < 0 ? aaf::offset_ray_origin(p, towards)
-                                                               : p + static_cast<float>(origin_offset) * towards;
+                    const glm::vec3 origin = aaf::shadow_ray_origin(p, nrm, s.light.center(), origin_offset);
                     double vis = 0, tot = 0;
                     for (const glm::vec2& u : uv) {
                         const glm::vec3 yl = s.light.point(u.x, u.y);

@@ -89,9 +89,7 @@ std::uint64_t gather_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, con
         scratch.hits.resize(count);
     }
     // Offset the origin to the light's side of the surface (Wächter–Binder: no epsilon to tune).
-    const glm::vec<3, T> offset_normal = glm::dot(n, frame.center - p) >= T(0) ? n : -n;
-    const glm::vec<3, T> origin = s.origin_offset < 0 ? offset_ray_origin(p, offset_normal)
-                                                      : p + static_cast<T>(s.origin_offset) * offset_normal;
+    const glm::vec<3, T> origin = shadow_ray_origin(p, n, frame.center, s.origin_offset);
     // d1 from the same point the segments start at, so d2 = d1·(L − t)/L is exact (t, L are from `origin`).
     const T d1 = std::abs(glm::dot(origin - light.corner, frame.normal));
     std::size_t traced = 0;

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <type_traits>
 
+#include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
 namespace aaf {
@@ -75,6 +76,17 @@ template <class T>
         out[i] = std::bit_cast<T>(static_cast<I>(pc < T(0) ? bits - of_i : bits + of_i));
     }
     return out;
+}
+
+/// The origin of shadow rays from surface point `p` (normal `n`, either orientation) towards `target` (e.g.
+/// the light's centre): `p` moved off the surface on the target's side, automatically (offset_ray_origin)
+/// when `fixed_offset` < 0, else by `fixed_offset` world units along the normal (0 = not moved).
+template <class T>
+    requires std::is_floating_point_v<T>
+[[nodiscard]] glm::vec<3, T> shadow_ray_origin(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const glm::vec<3, T>& target,
+                                               double fixed_offset = -1) noexcept {
+    const glm::vec<3, T> towards = glm::dot(n, target - p) >= T(0) ? n : -n;
+    return fixed_offset < 0 ? offset_ray_origin(p, towards) : p + static_cast<T>(fixed_offset) * towards;
 }
 
 }  // namespace v0
