@@ -75,6 +75,34 @@ struct frame_settings {
     T radiance = 1;  ///< light radiance used by the shaded output's exact unshadowed irradiance
 };
 
+/// Named points on the speed/accuracy trade-off, measured by `aaf-tradeoff` (docs/RESULTS.md has each
+/// preset's rays per pixel, time and error on every scene). Start from one and change what you need.
+enum class frame_preset {
+    fast,      ///< fewest rays: 4 initial samples, μ = 1.5, at most 36 per pixel
+    balanced,  ///< the paper's settings: 9 initial samples, μ = 2, at most 100 per pixel (the defaults)
+    accurate,  ///< lowest error: 16 initial samples, μ = 3, at most 256 per pixel
+};
+
+/// The settings of a preset (image-space offsets, guides as the caller provides them).
+template <class T = float>
+[[nodiscard]] constexpr frame_settings<T> preset(frame_preset p) noexcept {
+    frame_settings<T> s{};
+    switch (p) {
+        case frame_preset::fast:
+            s.sampling.initial_samples = 4;
+            s.sampling.max_samples = 36;
+            s.formulas.mu = T(1.5);
+            break;
+        case frame_preset::balanced: break;
+        case frame_preset::accurate:
+            s.sampling.initial_samples = 16;
+            s.sampling.max_samples = 256;
+            s.formulas.mu = T(3);
+            break;
+    }
+    return s;
+}
+
 namespace detail {
 
 inline void require(bool ok, const char* function, const char* field, const std::string& what) {
