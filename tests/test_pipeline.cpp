@@ -329,3 +329,28 @@ TEST_CASE("the standalone filter deduces its type from the output, so owning ima
     aaf::filter_visibility(visibility, beta, pixel, out.view());  // no <float>, no cview()
     CHECK(out(4, 4) == Approx(0.5f));
 }
+
+TEST_CASE("presets are valid and trade rays for error in order", "[pipeline][presets]") {
+    // balanced is the paper's settings, i.e. the library defaults.
+    const aaf::frame_settings<float> balanced = aaf::preset<float>(aaf::frame_preset::balanced), defaults{};
+    CHECK(balanced.sampling.initial_samples == defaults.sampling.initial_samples);
+    CHECK(balanced.sampling.max_samples == defaults.sampling.max_samples);
+    CHECK(balanced.formulas.mu == defaults.formulas.mu);
+
+    const analytic_scene<float> sc = overlapping_occluders(64);
+    const analytic_gbuffer<float> gb(sc);
+    const aaf::image<float> exact = to_float(sc.exact_image());
+    double previous_rays = 0, previous_rmse = 1;
+    for (const auto p : {aaf::frame_preset::fast, aaf::frame_preset::balanced, aaf::frame_preset::accurate}) {
+        const aaf::frame_settings<float> s = aaf::preset<float>(p);
+        CHECK_NOTHROW(aaf::validate(s));
+        const run_result r = run(sc, gb, span_tracer<float>{&sc}, s);
+        const double rays = static_cast<double>(r.report.rays()) / static_cast<double>(sc.width * sc.height);
+        const double e = rmse(r.visibility, exact);
+        std::printf("[measure] preset %d on overlapping occluders 64x64: %.2f rays/px, RMSE %.5f\n", static_cast<int>(p), rays, e);
+        CHECK(rays > previous_rays);
+        CHECK(e < previous_rmse);
+        previous_rays = rays;
+        previous_rmse = e;
+    }
+}
