@@ -1,23 +1,37 @@
 // SPDX-License-Identifier: MIT
-// Core benchmarks: the library's own per-ray overhead (sampling + segments + statistics, with a tracer
-// that costs nothing), the formulas and the sampler per pixel, and the guided filter at 1280×720 next to a
-// plain copy of the frame (the bandwidth anchor), on 1 and 2 threads.
+// Core benchmarks, in time per pixel / sample / ray: the library's own per-ray overhead (sampling +
+// segments + statistics, with a tracer that costs nothing), the formulas, the sampler and the occlusion
+// statistics (add_sample, merge, slopes). The filter is in bench_filter.cpp, the whole frame in bench_frame.cpp.
 //
-//   build/release/benchmarks/aaf_benchmarks --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+//   BM_per_ray_overhead/spp:N/pattern:P/random_hits:R   time_per_ray
+//   BM_formulas_per_pixel                                time_per_px: filter_width + sample_count
+//   BM_sampler_per_sample/n:N/pattern:P                  time_per_sample (one pixel's N samples per iteration)
+//   BM_stats_add_sample                                  time_per_sample: occlusion_stats::add_sample
+//   BM_stats_merge_slopes                                time_per_px: merge of two records + slopes()
+//   BM_stats_per_pixel/samples:N                         time_per_px: N × add_sample, merge, slopes()
+//
+// The time_per_* counters are seconds per item shown with an SI prefix ("26n" = 26 ns).
+//
+//   scripts/bench 'BM_(per_ray|formulas|sampler|stats)'
 
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
-#include <cstdio>
-#include <cstring>
+#include <cstdint>
 #include <vector>
 
 #include <aaf/aaf.hpp>
 
+#include "bench_common.hpp"
+
 namespace {
 
-constexpr std::size_t W = 1280, H = 720;
+/// Seconds per item (`items` over the whole run), shown with an SI prefix: "26n" = 26 ns.
+void per_item(benchmark::State& state, const char* name, double items) {
+    state.counters[name] = benchmark::Counter(items, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
 
 /// A tracer that answers at once: isolates aaf's per-ray work from tracing. `random_hits` decides hit or
 /// miss from a bit of the ray direction (unpredictable branches, the worst case); otherwise the left half
@@ -30,44 +44,9 @@ struct instant_tracer {
     }
 };
 
-struct frame_data {
-    std::size_t w, h;
-    aaf::image<glm::vec3> positions, normals;
-    aaf::image<float> pixel_size, visibility, beta;
-    aaf::image<std::uint32_t> ids;
-
-    frame_data(std::size_t w_, std::size_t h_)
-        : w(w_), h(h_), positions(w_, h_), normals(w_, h_, glm::vec3(0, 1, 0)), pixel_size(w_, h_, 0.01f),
-          visibility(w_, h_), beta(w_, h_), ids(w_, h_, 1u) {
-        for (std::size_t y = 0; y < h; ++y)
-            for (std::size_t x = 0; x < w; ++x) {
-                const float fx = static_cast<float>(x), fy = static_cast<float>(y);
-                positions(x, y) = {0.01f * fx, 0.0f, 0.01f * fy};
-                visibility(x, y) = 0.5f + 0.5f * std::sin(0.05f * fx) * std::cos(0.03f * fy);
-                // A smooth β field between 1 and 10 pixels (0.01 world units per pixel).
-                beta(x, y) = 0.01f * (5.5f + 4.5f * std::sin(0.004f * fx + 0.006f * fy));
-                ids(x, y) = (x / 200 + y / 150) % 3;
-                normals(x, y) = glm::normalize(glm::vec3(0.1f * std::sin(0.01f * fx), 1.0f, 0.0f));
-            }
-    }
-    [[nodiscard]] aaf::gbuffer<float> gbuffer() const { return {positions.cview(), normals.cview(), pixel_size.cview(), {}}; }
-};
-
-void BM_copy_frame(benchmark::State& state) {
-    std::vector<float> a(W * H, 1.0f), b(W * H);
-    for (auto _ : state) {
-        std::memcpy(b.data(), a.data(), a.size() * sizeof(float));
-        benchmark::DoNotOptimize(b.data());
-        benchmark::ClobberMemory();
-    }
-    state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * W * H));
-    state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * W * H * 2 * sizeof(float)));
-}
-BENCHMARK(BM_copy_frame)->Unit(benchmark::kMillisecond);
-
 /// ns of library work per shadow ray: sample generation, segment set-up, offsetting, statistics.
 void BM_per_ray_overhead(benchmark::State& state) {
-    const frame_data f(256, 256);
+    const aaf_bench::synthetic_frame<float> f(256, 256);
     aaf::image<aaf::occlusion_stats<float>> stats(f.w, f.h);
     aaf::sampling_settings s;
     s.initial_samples = s.max_samples = static_cast<std::uint32_t>(state.range(0));
@@ -81,8 +60,7 @@ void BM_per_ray_overhead(benchmark::State& state) {
         benchmark::DoNotOptimize(stats.data());
     }
     // Seconds per ray, shown with an SI prefix (e.g. "26n" = 26 ns per ray).
-    state.counters["time_per_ray"] = benchmark::Counter(static_cast<double>(rays),
-                                                      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+    per_item(state, "time_per_ray", static_cast<double>(rays));
     state.SetItemsProcessed(static_cast<std::int64_t>(rays));
 }
 BENCHMARK(BM_per_ray_overhead)
@@ -102,7 +80,7 @@ void BM_formulas_per_pixel(benchmark::State& state) {
             benchmark::DoNotOptimize(aaf::filter_width(s, 0.5f, 0.01f, fs));
             benchmark::DoNotOptimize(aaf::sample_count(s, 0.5f, 0.01f, fs));
         }
-    state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * slopes.size()));
+    per_item(state, "time_per_px", static_cast<double>(state.iterations()) * static_cast<double>(slopes.size()));
 }
 BENCHMARK(BM_formulas_per_pixel);
 
@@ -114,45 +92,87 @@ void BM_sampler_per_sample(benchmark::State& state) {
         aaf::generate_samples<float>(pattern, {x++, 7, 0, 0, 0}, out);
         benchmark::DoNotOptimize(out.data());
     }
-    state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * out.size()));
+    per_item(state, "time_per_sample", static_cast<double>(state.iterations()) * static_cast<double>(out.size()));
 }
 BENCHMARK(BM_sampler_per_sample)->ArgsProduct({{9, 64}, {0, 1, 2}})->ArgNames({"n", "pattern"});
 
-/// The guided separable filter at 1280×720, β smooth in [1, 10] px. Args: threads, offset space,
-/// guides (0 none, 1 normals + IDs).
-void BM_filter(benchmark::State& state) {
-    static const frame_data f(W, H);
-    aaf::image<float> out(W, H), scratch(W, H);
-    aaf::filter_settings<float> fs;
-    fs.space = state.range(1) ? aaf::offset_space::light_plane : aaf::offset_space::image;
-    aaf::thread_pool pool(static_cast<std::size_t>(state.range(0)));
-    const auto run = [&](const auto& g) {
-        aaf::filter_visibility<float>(f.visibility.cview(), f.beta.cview(), f.pixel_size.cview(), out.view(), scratch.view(), g,
-                                      fs, {0.0f, 1.0f, 0.0f}, pool);
+/// Sample records of a penumbra: `receivers` pixels × `per_pixel` samples, about 40 % occluded, with
+/// varied occluder distances (so the min/max updates are not predictable).
+struct sample_batch {
+    struct sample {
+        float weight, d1, length;
+        aaf::occluder_span<float> hit;
     };
-    for (auto _ : state) {
-        if (state.range(2)) run(aaf::guides{f.normals.cview(), f.ids.cview(), f.positions.cview()});
-        else run(aaf::guides<aaf::no_guide, aaf::no_guide, aaf::const_image_view<glm::vec3>>{{}, {}, f.positions.cview()});
-        benchmark::DoNotOptimize(out.data());
+    std::vector<sample> samples;
+    sample_batch(std::size_t receivers, std::size_t per_pixel) : samples(receivers * per_pixel) {
+        std::uint32_t r = 12345u;
+        const auto next = [&r] { return static_cast<float>((r = r * 1664525u + 1013904223u) >> 8) * 0x1p-24f; };
+        for (std::size_t i = 0; i < samples.size(); ++i) {
+            const float d1 = 2.0f + next(), len = d1 * (1.0f + 0.2f * next());
+            const float t = len * (0.1f + 0.8f * next());
+            samples[i] = {1.0f, d1, len, next() < 0.4f ? aaf::occluder_span<float>{t, std::min(len, t * 1.2f)} : aaf::occluder_span<float>{}};
+        }
     }
-    // Taps per pixel per pass, for reading the throughput: 2·ceil(3β)+1 averaged over the frame.
-    double taps = 0;
-    for (std::size_t i = 0; i < f.beta.size(); ++i) taps += 2.0 * std::min(std::ceil(3.0 * static_cast<double>(f.beta.data()[i]) / 0.01), 24.0) + 1.0;
-    state.counters["taps_per_px_pass"] = taps / static_cast<double>(f.beta.size());
-    state.counters["Mpx_per_s"] = benchmark::Counter(static_cast<double>(state.iterations() * W * H) * 1e-6, benchmark::Counter::kIsRate);
-}
-BENCHMARK(BM_filter)
-    ->ArgsProduct({{1, 2}, {0, 1}, {0, 1}})
-    ->ArgNames({"threads", "light_plane", "guides"})
-    ->Unit(benchmark::kMillisecond)
-    ->UseRealTime();
+};
 
-// Recorded in the benchmark's context header (and JSON output): the flags this binary was built with.
-#ifdef AAF_BUILD_FLAGS
-[[maybe_unused]] const bool build_flags_recorded = [] {
-    benchmark::AddCustomContext("aaf_build_flags", AAF_BUILD_FLAGS);
-    return true;
-}();
-#endif
+void BM_stats_add_sample(benchmark::State& state) {
+    const sample_batch batch(4096, 1);
+    for (auto _ : state) {
+        aaf::occlusion_stats<float> st;
+        for (const auto& s : batch.samples) st.add_sample(s.weight, s.d1, s.length, s.hit);
+        benchmark::DoNotOptimize(st);
+    }
+    per_item(state, "time_per_sample", static_cast<double>(state.iterations()) * static_cast<double>(batch.samples.size()));
+}
+BENCHMARK(BM_stats_add_sample);
+
+/// Per pixel: the merge of an initial and an adaptive record and the slopes of the result.
+void BM_stats_merge_slopes(benchmark::State& state) {
+    constexpr std::size_t pixels = 4096;
+    const sample_batch batch(pixels, 8);
+    std::vector<aaf::occlusion_stats<float>> a(pixels), b(pixels);
+    for (std::size_t i = 0; i < pixels; ++i)
+        for (std::size_t k = 0; k < 4; ++k) {
+            const auto& s = batch.samples[8 * i + k];
+            const auto& t = batch.samples[8 * i + 4 + k];
+            a[i].add_sample(s.weight, s.d1, s.length, s.hit);
+            b[i].add_sample(t.weight, t.d1, t.length, t.hit);
+        }
+    std::vector<aaf::slope_pair<float>> out(pixels);
+    for (auto _ : state) {
+        for (std::size_t i = 0; i < pixels; ++i) out[i] = aaf::slopes(aaf::merge(a[i], b[i]), 1e6f);
+        benchmark::DoNotOptimize(out.data());
+        benchmark::ClobberMemory();
+    }
+    per_item(state, "time_per_px", static_cast<double>(state.iterations()) * static_cast<double>(pixels));
+}
+BENCHMARK(BM_stats_merge_slopes);
+
+/// A pixel's whole statistics work at N samples (e.g. ~20, the default frame's mean): N add_sample into
+/// the initial/adaptive records (half each), the merge and slopes().
+void BM_stats_per_pixel(benchmark::State& state) {
+    constexpr std::size_t pixels = 1024;
+    const auto n = static_cast<std::size_t>(state.range(0));
+    const sample_batch batch(pixels, n);
+    std::vector<aaf::slope_pair<float>> out(pixels);
+    for (auto _ : state) {
+        for (std::size_t i = 0; i < pixels; ++i) {
+            aaf::occlusion_stats<float> a, b;
+            for (std::size_t k = 0; k < n / 2; ++k) {
+                const auto& s = batch.samples[n * i + k];
+                a.add_sample(s.weight, s.d1, s.length, s.hit);
+            }
+            for (std::size_t k = n / 2; k < n; ++k) {
+                const auto& s = batch.samples[n * i + k];
+                b.add_sample(s.weight, s.d1, s.length, s.hit);
+            }
+            out[i] = aaf::slopes(aaf::merge(a, b), 1e6f);
+        }
+        benchmark::DoNotOptimize(out.data());
+        benchmark::ClobberMemory();
+    }
+    per_item(state, "time_per_px", static_cast<double>(state.iterations()) * static_cast<double>(pixels));
+}
+BENCHMARK(BM_stats_per_pixel)->ArgName("samples")->Arg(9)->Arg(20);
 
 }  // namespace
