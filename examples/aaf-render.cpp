@@ -5,15 +5,11 @@
 // the pictures and a one-screen summary. Run with --help for the options.
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
-#include <cinttypes>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <optional>
 #include <string>
@@ -21,27 +17,22 @@
 
 #include <stb_image_write.h>
 
-#include <glm/trigonometric.hpp>
-
 #include <aaf/aaf.hpp>
 
 #include "common/bvh.hpp"
+#include "common/render_support.hpp"
 #include "common/scene.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
+using aaf_examples::clock_type;
+using aaf_examples::first_hit_tracer;
+using aaf_examples::gbuffer_images;
+using aaf_examples::ms_since;
+using aaf_examples::parse_count;
 using aaf_examples::scene;
-using clock_type = std::chrono::steady_clock;
-
-double ms_since(clock_type::time_point t0) {
-    return std::chrono::duration<double, std::milli>(clock_type::now() - t0).count();
-}
-
-/// A user error: printed as one line, exit code 1.
-struct usage_error : std::runtime_error {
-    using std::runtime_error::runtime_error;
-};
+using aaf_examples::usage_error;
 
 struct options {
     std::string scene = "plant";
@@ -90,14 +81,6 @@ const char* const help_text =
     "  --help                this text\n"
     "Large optional meshes (the sports car) are found through the AAF_SCENES_DIR environment variable.\n";
 
-std::uint32_t parse_count(const std::string& flag, const std::string& v, std::uint32_t lo, std::uint32_t hi) {
-    char* end = nullptr;
-    const unsigned long long n = std::strtoull(v.c_str(), &end, 10);
-    if (v.empty() || *end != '\0' || v[0] == '-' || n < lo || n > hi)
-        throw usage_error(flag + " must be a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "] (got '" + v + "')");
-    return static_cast<std::uint32_t>(n);
-}
-
 options parse(int argc, char** argv) {
     options o;
     for (int i = 1; i < argc; ++i) {
@@ -114,11 +97,9 @@ options parse(int argc, char** argv) {
         else if (a == "--out") o.out = value();
         else if (a == "--cache") o.cache = value();
         else if (a == "--size") {
-            const std::string v = value();
-            const auto x = v.find('x');
-            if (x == std::string::npos) throw usage_error("--size must be WxH, e.g. 640x480 (got '" + v + "')");
-            o.width = parse_count("--size width", v.substr(0, x), 1, aaf_examples::max_image_side);
-            o.height = parse_count("--size height", v.substr(x + 1), 1, aaf_examples::max_image_side);
+            std::size_t width = 0, height = 0;
+            aaf_examples::parse_size(value(), width, height);
+            o.width = width, o.height = height;
         } else if (a == "--reference-spp") o.reference_spp = parse_count(a, value(), 1, 1u << 20);
         else if (a == "--no-reference") o.reference = false;
         else if (a == "--threads") o.threads = parse_count(a, value(), 0, 1024);
@@ -166,158 +147,6 @@ options parse(int argc, char** argv) {
     return o;
 }
 
-/// Hides the farthest occluder: the "first hit" statistics of FORMULAS.md §1.3.
-struct first_hit_tracer {
-    const aaf_examples::bvh* bvh;
-    [[nodiscard]] float nearest_occluder(const aaf::shadow_segment<float>& s) const noexcept { return bvh->nearest_occluder(s); }
-};
-
-/// The G-buffer of a pinhole camera, in the layout aaf reads.
-struct gbuffer_images {
-    aaf::image<glm::vec3> positions, normals;
-    aaf::image<float> pixel_size, albedo;
-    aaf::image<std::uint32_t> ids;
-    std::size_t surfaces = 0;
-};
-
-gbuffer_images render_gbuffer(const scene& s, const aaf_examples::bvh& bvh, aaf::thread_pool& pool) {
-    const std::size_t w = s.width, h = s.height;
-    const float nan = std::numeric_limits<float>::quiet_NaN();
-    gbuffer_images g{aaf::image<glm::vec3>(w, h, glm::vec3(nan)), aaf::image<glm::vec3>(w, h, glm::vec3(nan)),
-                     aaf::image<float>(w, h, 0.0f), aaf::image<float>(w, h, 0.0f),
-                     aaf::image<std::uint32_t>(w, h, 0xffffffffu), 0};
-    const float tan_half = std::tan(0.5f * glm::radians(s.view.fov_y_degrees));
-    const glm::vec3 fwd = glm::normalize(s.view.target - s.view.position);
-    const glm::vec3 right = glm::normalize(glm::cross(fwd, s.view.up)), up = glm::cross(right, fwd);
-    const float aspect = static_cast<float>(w) / static_cast<float>(h);
-    std::atomic<std::size_t> surfaces{0};
-    pool.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
-        std::size_t local = 0;
-        for (std::size_t y = y0; y < y1; ++y)
-            for (std::size_t x = 0; x < w; ++x) {
-                const float sx = (2.0f * (static_cast<float>(x) + 0.5f) / static_cast<float>(w) - 1.0f) * tan_half * aspect;
-                const float sy = (1.0f - 2.0f * (static_cast<float>(y) + 0.5f) / static_cast<float>(h)) * tan_half;
-                const glm::vec3 d = glm::normalize(fwd + sx * right + sy * up);
-                const aaf_examples::ray_hit hit = bvh.nearest_hit(s.view.position, d);
-                if (!hit.hit()) continue;
-                // The hit point from the triangle's vertices (barycentrics) is more accurate than o + t·d.
-                const glm::uvec3 tri = s.triangles[hit.triangle];
-                const glm::vec3 p = (1.0f - hit.barycentrics.x - hit.barycentrics.y) * s.vertices[tri.x] +
-                                    hit.barycentrics.x * s.vertices[tri.y] + hit.barycentrics.y * s.vertices[tri.z];
-                g.positions(x, y) = p;
-                g.normals(x, y) = glm::dot(hit.normal, d) < 0.0f ? hit.normal : -hit.normal;  // face the camera
-                const std::uint32_t object = s.triangle_object[hit.triangle];
-                g.ids(x, y) = object;
-                g.albedo(x, y) = s.objects[object].albedo;
-                g.pixel_size(x, y) = aaf::pinhole_pixel_size(hit.t, tan_half, static_cast<std::uint32_t>(h));
-                ++local;
-            }
-        surfaces += local;
-    });
-    g.surfaces = surfaces.load();
-    return g;
-}
-
-/// 64-bit FNV-1a over bytes: the reference cache key.
-struct fnv1a {
-    std::uint64_t h = 1469598103934665603ull;
-    void add(const void* data, std::size_t n) {
-        const auto* p = static_cast<const unsigned char*>(data);
-        for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
-    }
-    template <class T>
-    void add(const std::vector<T>& v) { add(v.data(), v.size() * sizeof(T)); }
-    template <class T>
-    void add_value(const T& v) { add(&v, sizeof(T)); }
-};
-
-std::uint64_t reference_key(const scene& s, std::uint32_t spp, aaf::light_weighting weighting, double origin_offset) {
-    fnv1a f;
-    const std::uint32_t format = 2;  // bump when the reference's meaning changes
-    f.add_value(format);
-    f.add(s.vertices);
-    f.add(s.triangles);
-    f.add_value(s.light);
-    f.add_value(s.view);
-    f.add_value(s.width);
-    f.add_value(s.height);
-    f.add_value(spp);
-    f.add_value(weighting);
-    f.add_value(origin_offset);
-    return f.h;
-}
-
-/// The converged reference: plain stratified Monte Carlo with `spp` samples per pixel (in chunks, with a
-/// progress bar and an ETA on stderr), cached on disk under `cache` by a hash of everything it depends on.
-aaf::image<float> reference_visibility(const scene& s, const gbuffer_images& g, const aaf_examples::bvh& bvh,
-                                       std::uint32_t spp, aaf::light_weighting weighting, double origin_offset,
-                                       const fs::path& cache,
-                                       aaf::thread_pool& pool, bool& from_cache, double& ms) {
-    const auto t0 = clock_type::now();
-    const std::size_t w = s.width, h = s.height;
-    char name[64];
-    std::snprintf(name, sizeof name, "reference-%016" PRIx64 ".f32", reference_key(s, spp, weighting, origin_offset));
-    const fs::path file = cache / name;
-    aaf::image<float> ref(w, h);
-    if (std::ifstream in{file, std::ios::binary}) {
-        in.read(reinterpret_cast<char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(float)));
-        if (in.gcount() == static_cast<std::streamsize>(ref.size() * sizeof(float))) {
-            from_cache = true;
-            ms = ms_since(t0);
-            return ref;
-        }
-    }
-    from_cache = false;
-    // Visibility only, so the BVH's any-hit query (stops at the first hit), not aaf's occluder statistics:
-    // faster, and independent of the code under test. Samples: aaf's stratified sampler, passes 1000+, so
-    // they never coincide with the pipeline's passes 0 and 1; weights as the pipeline's.
-    std::vector<double> visible(w * h, 0.0), total(w * h, 0.0);
-    const std::uint32_t chunk = std::max<std::uint32_t>(16, std::min<std::uint32_t>(256, spp / 16));
-    for (std::uint32_t done = 0, pass = 0; done < spp; done += chunk, ++pass) {
-        const std::uint32_t n = std::min(chunk, spp - done);
-        pool.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
-            std::vector<glm::vec2> uv(n);
-            for (std::size_t y = y0; y < y1; ++y)
-                for (std::size_t x = 0; x < w; ++x) {
-                    const glm::vec3 p = g.positions(x, y), nrm = g.normals(x, y);
-                    if (!std::isfinite(p.x)) continue;
-                    aaf::generate_samples<float>(aaf::sample_pattern::stratified,
-                                                 {static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y), 1000 + pass, 0, 0}, uv);
-                    const glm::vec3 origin = aaf::shadow_ray_origin(p, nrm, s.light.center(), origin_offset);
-                    double vis = 0, tot = 0;
-                    for (const glm::vec2& u : uv) {
-                        const glm::vec3 yl = s.light.point(u.x, u.y);
-                        const float wgt = s.light.sample_weight(weighting, p, nrm, yl);
-                        if (!(wgt > 0.0f)) continue;
-                        const glm::vec3 to = yl - origin;
-                        const float len = glm::length(to);
-                        tot += static_cast<double>(wgt);
-                        if (!bvh.occluded({origin, to / len, len})) vis += static_cast<double>(wgt);
-                    }
-                    visible[y * w + x] += vis;
-                    total[y * w + x] += tot;
-                }
-        });
-        const double elapsed = ms_since(t0) / 1000.0, frac = static_cast<double>(done + n) / spp;
-        const int bar = static_cast<int>(frac * 30);
-        std::fprintf(stderr, "\rreference %5u spp [%.*s%*s] %3.0f%%  ETA %6.1f s ", spp, bar, "##############################",
-                     30 - bar, "", 100.0 * frac, elapsed / frac - elapsed);
-    }
-    std::fprintf(stderr, "\n");
-    for (std::size_t i = 0; i < ref.size(); ++i)
-        ref.data()[i] = total[i] > 0 ? static_cast<float>(visible[i] / total[i]) : std::numeric_limits<float>::quiet_NaN();
-    fs::create_directories(cache);
-    const fs::path tmp = file.string() + ".tmp";
-    {
-        std::ofstream outf(tmp, std::ios::binary);
-        outf.write(reinterpret_cast<const char*>(ref.data()), static_cast<std::streamsize>(ref.size() * sizeof(float)));
-        if (!outf) throw std::runtime_error("cannot write the reference cache " + tmp.string());
-    }
-    fs::rename(tmp, file);
-    ms = ms_since(t0);
-    return ref;
-}
-
 /// Writes PNGs into `out` only when everything succeeded: each picture goes to a temporary name first, and
 /// `commit` renames them all; if the run fails before that, the destructor removes the temporaries.
 class picture_writer {
@@ -357,17 +186,6 @@ private:
     std::vector<std::pair<fs::path, fs::path>> files_;
 };
 
-/// Unfiltered visibility for display: undefined pixels as the pipeline defines them.
-aaf::image<float> displayable(const aaf::image<float>& raw, const gbuffer_images& g) {
-    aaf::image<float> out(raw.width(), raw.height());
-    for (std::size_t i = 0; i < raw.size(); ++i) {
-        const bool surface = std::isfinite(g.positions.data()[i].x);
-        const float v = raw.data()[i];
-        out.data()[i] = !surface ? 1.0f : std::isfinite(v) ? v : 0.0f;
-    }
-    return out;
-}
-
 int run(const options& opt) {
     const auto t_start = clock_type::now();
     scene s = aaf_examples::load_scene(opt.scene, opt.scenes_dir);
@@ -391,7 +209,7 @@ int run(const options& opt) {
     const aaf_examples::bvh bvh(s.vertices, s.triangles);
     const double bvh_ms = ms_since(t0);
     t0 = clock_type::now();
-    const gbuffer_images g = render_gbuffer(s, bvh, pool);
+    const gbuffer_images g = aaf_examples::render_gbuffer(s, bvh, pool);
     const double gbuffer_ms = ms_since(t0);
 
     aaf::frame_settings<float> settings;
@@ -419,22 +237,24 @@ int run(const options& opt) {
         opt.first_hit ? aaf::render_frame(gb, s.light, first_hit_tracer{&bvh}, {filtered.view()}, ws, settings, pool)
                       : aaf::render_frame(gb, s.light, bvh, {filtered.view()}, ws, settings, pool);
 
-    const aaf::image<float> noisy = displayable(ws.raw_visibility, g);
+    const aaf::image<float> noisy = aaf_examples::displayable(ws.raw_visibility, g);
     // The plain baseline: stratified Monte Carlo with the same number of rays spread evenly over the pixels.
     const auto equal_spp = static_cast<std::uint32_t>(
         std::ceil(static_cast<double>(report.rays()) / static_cast<double>(std::max<std::size_t>(g.surfaces, 1))));
-    aaf::image<aaf::occlusion_stats<float>> mc_stats(w, h);
-    aaf::sampling_settings mc_sampling = settings.sampling;
-    mc_sampling.initial_samples = mc_sampling.max_samples = std::max<std::uint32_t>(equal_spp, 1);
-    aaf::gather_occlusion(gb, s.light, bvh, mc_sampling, 500, mc_sampling.initial_samples, mc_stats.view(), {}, pool);
-    aaf::image<float> mc_raw(w, h);
-    for (std::size_t i = 0; i < mc_raw.size(); ++i) mc_raw.data()[i] = mc_stats.data()[i].visibility();
-    const aaf::image<float> equal_rays = displayable(mc_raw, g);
+    const aaf::image<float> equal_rays =
+        aaf_examples::render_mc(s, g, bvh, {.pattern = settings.sampling.pattern, .spp = std::max<std::uint32_t>(equal_spp, 1),
+                                            .seed = opt.seed, .pass = 500, .weighting = opt.weighting,
+                                            .origin_offset = opt.origin_offset}, pool).visibility;
     std::optional<aaf::image<float>> reference;
     bool from_cache = false;
     double reference_ms = 0;
-    if (opt.reference)
-        reference = displayable(reference_visibility(s, g, bvh, opt.reference_spp, opt.weighting, opt.origin_offset, opt.cache, pool, from_cache, reference_ms), g);
+    if (opt.reference) {
+        aaf_examples::reference_result r = aaf_examples::reference_visibility(
+            s, g, bvh, {.spp = opt.reference_spp, .seed = 0, .weighting = opt.weighting, .origin_offset = opt.origin_offset},
+            opt.cache, pool);
+        reference = aaf_examples::displayable(r.visibility, g);
+        from_cache = r.from_cache, reference_ms = r.ms;
+    }
 
     // Pictures: shaded = albedo × (ambient + exposure · E · visibility), gamma 2.2; exposure from the 95th
     // percentile of E so the lit floor is near white whatever the light's radiance.

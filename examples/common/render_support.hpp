@@ -1,0 +1,134 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+// What the example renderers (aaf-render, aaf-tradeoff) share: the G-buffer of a pinhole camera, the
+// tracers the BVH offers aaf (all hits, first hit, visibility only), the converged reference and its disk
+// cache, unfiltered Monte Carlo, and image metrics (RMSE, SSIM, largest error) over surface pixels.
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include <aaf/executor.hpp>
+#include <aaf/image.hpp>
+#include <aaf/sampler.hpp>
+#include <aaf/tracer.hpp>
+
+#include "common/bvh.hpp"
+#include "common/scene.hpp"
+
+namespace aaf_examples {
+
+using clock_type = std::chrono::steady_clock;
+
+/// Milliseconds since `t0`.
+[[nodiscard]] double ms_since(clock_type::time_point t0);
+
+/// A user error of a command-line tool: printed as one line, exit code 1.
+struct usage_error : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+/// A whole number in [lo, hi] for `flag`, else usage_error naming the flag and the value.
+[[nodiscard]] std::uint32_t parse_count(const std::string& flag, const std::string& v, std::uint32_t lo, std::uint32_t hi);
+/// "WxH" with each side in [1, max_image_side], else usage_error naming --size.
+void parse_size(const std::string& v, std::size_t& width, std::size_t& height);
+
+/// The BVH with only its nearest occluder visible: the "first hit" statistics of FORMULAS.md §1.3.
+struct first_hit_tracer {
+    const bvh* tracer;
+    [[nodiscard]] float nearest_occluder(const aaf::shadow_segment<float>& s) const noexcept { return tracer->nearest_occluder(s); }
+};
+
+/// The BVH's any-hit query (stops at the first triangle found): all unfiltered Monte Carlo needs. It reports
+/// an occluded segment as one occluder half-way along it, a distance nothing downstream of MC reads.
+struct visibility_tracer {
+    const bvh* tracer;
+    [[nodiscard]] aaf::occluder_span<float> occluder_span(const aaf::shadow_segment<float>& s) const noexcept {
+        if (!tracer->occluded(s)) return {};
+        return {0.5f * s.length, 0.5f * s.length};
+    }
+};
+
+/// The G-buffer of a pinhole camera, in the layout aaf reads. Sky pixels have NaN position and normal.
+struct gbuffer_images {
+    aaf::image<glm::vec3> positions, normals;
+    aaf::image<float> pixel_size, albedo;
+    aaf::image<std::uint32_t> ids;
+    std::size_t surfaces = 0;  ///< pixels with a surface
+
+    [[nodiscard]] bool surface(std::size_t i) const noexcept;
+    /// 1 for surface pixels, 0 for sky: the mask the metrics use.
+    [[nodiscard]] std::vector<unsigned char> surface_mask() const;
+};
+
+/// Primary rays through every pixel centre of `s`'s camera.
+[[nodiscard]] gbuffer_images render_gbuffer(const scene& s, const bvh& tracer, aaf::thread_pool& pool);
+
+/// Visibility for display and comparison: sky pixels 1, surface pixels without light (NaN) 0.
+[[nodiscard]] aaf::image<float> displayable(const aaf::image<float>& raw, const gbuffer_images& g);
+
+/// What defines a reference: every field is part of its cache key (with the scene's geometry, light,
+/// camera and image size).
+struct reference_params {
+    std::uint32_t spp = 1024;                                   ///< stratified samples per pixel
+    std::uint32_t seed = 0;                                     ///< frame seed of its samples (passes 1000+)
+    aaf::light_weighting weighting = aaf::light_weighting::uniform;
+    double origin_offset = -1;                                  ///< as sampling_settings::origin_offset
+};
+
+struct reference_result {
+    aaf::image<float> visibility;  ///< NaN where no sample counted (light below the horizon)
+    bool from_cache = false;
+    double ms = 0;
+};
+
+/// The cache file name of a reference: a 64-bit hash of everything it depends on.
+[[nodiscard]] std::string reference_file_name(const scene& s, const reference_params& p);
+
+/// The converged reference: plain stratified Monte Carlo with `p.spp` samples per pixel through the BVH's
+/// any-hit query and its own loop (independent of aaf's gathering code, which it judges), in chunks (with a
+/// progress bar and an ETA on stderr unless `progress` is false); cached under `cache` (written atomically:
+/// temporary file, rename).
+[[nodiscard]] reference_result reference_visibility(const scene& s, const gbuffer_images& g, const bvh& tracer,
+                                                    const reference_params& p, const std::filesystem::path& cache,
+                                                    aaf::thread_pool& pool, bool progress = true);
+
+/// What unfiltered Monte Carlo needs besides the scene.
+struct mc_params {
+    aaf::sample_pattern pattern = aaf::sample_pattern::stratified;
+    std::uint32_t spp = 1;
+    std::uint32_t seed = 0;   ///< frame seed
+    std::uint32_t pass = 0;   ///< sample pass (aaf's initial pass is 0, so equal spp means equal samples)
+    aaf::light_weighting weighting = aaf::light_weighting::uniform;
+    double origin_offset = -1;
+};
+
+struct mc_result {
+    aaf::image<float> visibility;  ///< displayable (sky 1, no light 0)
+    std::uint64_t rays = 0;        ///< shadow rays traced
+    double rays_ms = 0;            ///< tracing (aaf::gather_occlusion with the any-hit tracer)
+    double total_ms = 0;           ///< tracing + averaging into an image
+};
+
+/// Unfiltered Monte Carlo: `p.spp` samples per surface pixel of `p.pattern`, averaged.
+[[nodiscard]] mc_result render_mc(const scene& s, const gbuffer_images& g, const bvh& tracer, const mc_params& p,
+                                  aaf::thread_pool& pool);
+
+/// Image metrics over the pixels where `mask` is non-zero (an empty mask: every pixel).
+/// Root mean square of a − b; non-finite differences are errors of 1 (they should not happen).
+[[nodiscard]] double rmse(const aaf::image<float>& a, const aaf::image<float>& b, const std::vector<unsigned char>& mask = {});
+/// Largest |a − b|.
+[[nodiscard]] double max_abs_error(const aaf::image<float>& a, const aaf::image<float>& b, const std::vector<unsigned char>& mask = {});
+/// SSIM of Wang, Bovik, Sheikh & Simoncelli (2004) for values in [0, 1] (dynamic range L = 1, C1 = 0.01²,
+/// C2 = 0.03²) with their 11×11 Gaussian window (σ = 1.5), averaged over the masked pixels. Local means,
+/// variances and covariance are Gaussian-weighted over the masked pixels of the window only, normalised
+/// by the weight that remains, so sky pixels and the image border never enter (with no mask and away
+/// from the border this is exactly the standard SSIM). 1 for identical images; symmetric.
+[[nodiscard]] double ssim(const aaf::image<float>& a, const aaf::image<float>& b, const std::vector<unsigned char>& mask = {});
+
+}  // namespace aaf_examples

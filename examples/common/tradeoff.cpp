@@ -1,0 +1,596 @@
+// SPDX-License-Identifier: MIT
+#include "common/tradeoff.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include <aaf/pipeline.hpp>
+#include <aaf/settings.hpp>
+
+#include "common/bvh.hpp"
+#include "common/render_support.hpp"
+#include "common/scene.hpp"
+
+namespace aaf_examples::tradeoff {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+enum class method_kind { mc, aaf, preset };
+
+/// Everything that defines a method besides its knob's values.
+struct method_def {
+    std::string name;
+    method_kind kind = method_kind::aaf;
+    std::string knob;  ///< "spp", "initial_samples", "mu" or "preset"
+    aaf::sample_pattern pattern = aaf::sample_pattern::stratified;
+    aaf::offset_space space = aaf::offset_space::image;
+    bool first_hit = false;
+    bool guides = true;
+    aaf::frame_preset preset = aaf::frame_preset::balanced;
+    std::string description;
+};
+
+const std::vector<method_def>& definitions() {
+    using aaf::offset_space;
+    using aaf::sample_pattern;
+    static const std::vector<method_def> defs = {
+        {"mc_stratified", method_kind::mc, "spp", sample_pattern::stratified, offset_space::image, false, false, {},
+         "unfiltered Monte Carlo, jittered equal-area strata (the equal-error baseline)"},
+        {"mc_regular_grid", method_kind::mc, "spp", sample_pattern::regular_grid, offset_space::image, false, false, {},
+         "unfiltered Monte Carlo, strata centres, same in every pixel"},
+        {"mc_low_discrepancy", method_kind::mc, "spp", sample_pattern::low_discrepancy, offset_space::image, false, false, {},
+         "unfiltered Monte Carlo, Owen-scrambled Sobol'"},
+        {"aaf_fixed", method_kind::aaf, "initial_samples", sample_pattern::stratified, offset_space::image, false, true, {},
+         "aaf filter on a fixed sample count, no adaptive pass"},
+        {"aaf_adaptive", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::image, false, true, {},
+         "aaf: 9 initial samples, adaptive pass, image-space offsets, all-hits statistics, normal and ID guides"},
+        {"aaf_light_plane", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::light_plane, false, true, {},
+         "as aaf_adaptive with light-parallel world offsets (positions guide)"},
+        {"aaf_first_hit", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::image, true, true, {},
+         "as aaf_adaptive with first-hit statistics (nearest occluder only)"},
+        {"aaf_no_guides", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::image, false, false, {},
+         "as aaf_adaptive without normal and ID guides"},
+        {"preset_fast", method_kind::preset, "preset", sample_pattern::stratified, offset_space::image, false, true,
+         aaf::frame_preset::fast, "aaf::preset(frame_preset::fast)"},
+        {"preset_balanced", method_kind::preset, "preset", sample_pattern::stratified, offset_space::image, false, true,
+         aaf::frame_preset::balanced, "aaf::preset(frame_preset::balanced)"},
+        {"preset_accurate", method_kind::preset, "preset", sample_pattern::stratified, offset_space::image, false, true,
+         aaf::frame_preset::accurate, "aaf::preset(frame_preset::accurate)"},
+    };
+    return defs;
+}
+
+const char* pattern_name(aaf::sample_pattern p) {
+    switch (p) {
+        case aaf::sample_pattern::stratified: return "stratified";
+        case aaf::sample_pattern::regular_grid: return "regular_grid";
+        case aaf::sample_pattern::low_discrepancy: return "low_discrepancy";
+    }
+    return "?";
+}
+
+/// The adaptive sweeps' cap on samples per pixel: ∝ μ², 100 at the paper's μ = 2 (the formulas' n grows
+/// as μ², so the cap binds equally often at every μ).
+std::uint32_t max_samples_for_mu(double mu) { return static_cast<std::uint32_t>(std::lround(100.0 * (mu / 2) * (mu / 2))); }
+
+/// The settings of one point of an aaf or preset method.
+aaf::frame_settings<float> aaf_settings(const method_def& m, double knob, const config& c, const scene& s) {
+    aaf::frame_settings<float> fs = m.kind == method_kind::preset ? aaf::preset<float>(m.preset) : aaf::frame_settings<float>{};
+    if (m.kind == method_kind::aaf) {
+        if (m.knob == "initial_samples") {
+            fs.sampling.initial_samples = fs.sampling.max_samples = static_cast<std::uint32_t>(knob);
+            fs.sampling.adaptive = false;
+        } else {
+            fs.formulas.mu = static_cast<float>(knob);
+            fs.sampling.initial_samples = 9;
+            fs.sampling.max_samples = std::max<std::uint32_t>(9, max_samples_for_mu(knob));
+        }
+        fs.filter.space = m.space;
+        // render_frame always filters with normals (and IDs when the G-buffer has them): a threshold of
+        // 180° accepts every finite normal, which is the normal guide switched off.
+        if (!m.guides) fs.filter.normal_threshold_degrees = 180;
+    }
+    fs.sampling.frame_seed = c.seed;
+    fs.radiance = s.radiance;
+    return fs;
+}
+
+json settings_json(const method_def& m, const config& c) {
+    json j;
+    j["description"] = m.description;
+    j["frame_seed"] = c.seed;
+    j["weighting"] = "uniform";
+    j["ray_origin_offset"] = "automatic (ULP offsetting)";
+    if (m.kind == method_kind::mc) {
+        j["pattern"] = pattern_name(m.pattern);
+        j["knob"] = "spp: samples per surface pixel, doubling from 1";
+        j["tracer"] = "BVH any-hit (visibility only)";
+        j["filter"] = "none";
+        j["sample_pass"] = 0;
+        return j;
+    }
+    // Everything that defines an aaf frame, from the settings of its first point (the knob's fields vary).
+    const scene dummy{};
+    const aaf::frame_settings<float> fs = aaf_settings(m, m.knob == "initial_samples" ? 9.0 : 2.0, c, dummy);
+    j["pattern"] = pattern_name(fs.sampling.pattern);
+    if (m.kind == method_kind::preset) {
+        j["knob"] = "none (one point)";
+        j["initial_samples"] = fs.sampling.initial_samples;
+        j["max_samples"] = fs.sampling.max_samples;
+        j["mu"] = fs.formulas.mu;
+    } else if (m.knob == "initial_samples") {
+        j["knob"] = "initial_samples = max_samples (fixed samples per pixel)";
+        j["mu"] = fs.formulas.mu;
+    } else {
+        j["knob"] = "mu";
+        j["initial_samples"] = fs.sampling.initial_samples;
+        j["max_samples_rule"] = "max(9, round(100 * (mu / 2)^2)): proportional to mu^2, 100 at mu = 2";
+    }
+    j["adaptive"] = fs.sampling.adaptive;
+    j["offsets"] = fs.filter.space == aaf::offset_space::light_plane ? "light_plane" : "image";
+    json guides = json::array();
+    if (m.guides) guides.push_back("normals"), guides.push_back("ids");
+    if (fs.filter.space == aaf::offset_space::light_plane) guides.push_back("positions");
+    j["guides"] = guides;
+    j["normal_threshold_degrees"] = fs.filter.normal_threshold_degrees;
+    j["stats"] = m.first_hit ? "first_hit" : "all_hits";
+    j["tracer"] = m.first_hit ? "BVH nearest occluder" : "BVH nearest and farthest occluder";
+    j["formula_form"] = fs.formulas.form == aaf::formula_form::paper ? "paper" : "authors";
+    j["k"] = fs.formulas.k;
+    j["alpha"] = fs.formulas.alpha;
+    j["truncation"] = fs.filter.truncation;
+    j["max_radius"] = fs.filter.max_radius;
+    j["spread_slopes"] = fs.filter.spread_slopes;
+    j["spread_radius"] = fs.filter.spread_radius;
+    j["spread_guide"] = m.guides ? "ids" : "none";
+    return j;
+}
+
+std::string fmt(const char* f, double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, f, v);
+    return buf;
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0;
+    std::sort(v.begin(), v.end());
+    const std::size_t n = v.size();
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/// One measured point before metrics: the image of the first run, the timings of every run.
+struct measurement {
+    aaf::image<float> visibility;
+    std::uint64_t rays = 0;
+    std::vector<double> total_ms, rays_ms, formulas_ms, filter_ms;
+};
+
+template <class Ids, class Tracer>
+measurement measure_aaf(const aaf::gbuffer<float, Ids>& gb, const scene& s, const Tracer& tracer,
+                        const aaf::frame_settings<float>& fs, std::uint32_t repeat, aaf::thread_pool& pool) {
+    measurement m;
+    m.visibility = aaf::image<float>(s.width, s.height);
+    aaf::image<float> out(s.width, s.height);
+    aaf::frame_workspace<float> ws;
+    ws.resize(s.width, s.height);  // allocation is not part of a frame
+    for (std::uint32_t r = 0; r < repeat; ++r) {
+        const aaf::frame_report rep = aaf::render_frame(gb, s.light, tracer, {r == 0 ? m.visibility.view() : out.view()}, ws, fs, pool);
+        if (r == 0) m.rays = rep.rays();
+        m.total_ms.push_back(rep.total_ms);
+        m.rays_ms.push_back(rep.initial_ms + rep.adaptive_ms);
+        m.formulas_ms.push_back(rep.formulas_ms);
+        m.filter_ms.push_back(rep.filter_ms);
+    }
+    return m;
+}
+
+struct context {
+    const config& c;
+    const scene& s;
+    const bvh& tracer;
+    const gbuffer_images& g;
+    const aaf::image<float>& reference;
+    const std::vector<unsigned char>& mask;
+    aaf::thread_pool& pool;
+};
+
+json point_json(const context& ctx, const measurement& m, double knob) {
+    const double pixels = static_cast<double>(std::max<std::size_t>(ctx.g.surfaces, 1));
+    json p;
+    p["knob_value"] = knob;
+    p["rays_per_pixel"] = static_cast<double>(m.rays) / pixels;
+    p["time_ms"] = median(m.total_ms);
+    p["rays_ms"] = median(m.rays_ms);
+    p["filter_ms"] = m.filter_ms.empty() ? 0.0 : median(m.filter_ms);
+    if (!m.formulas_ms.empty()) p["formulas_ms"] = median(m.formulas_ms);
+    p["filter_share"] = p["time_ms"].get<double>() > 0 ? p["filter_ms"].get<double>() / p["time_ms"].get<double>() : 0.0;
+    p["rmse"] = rmse(m.visibility, ctx.reference, ctx.mask);
+    p["ssim"] = ssim(m.visibility, ctx.reference, ctx.mask);
+    p["max_abs_error"] = max_abs_error(m.visibility, ctx.reference, ctx.mask);
+    p["time_ms_runs"] = m.total_ms;
+    return p;
+}
+
+json measure_aaf_point(const context& ctx, const method_def& def, double knob) {
+    const aaf::frame_settings<float> fs = aaf_settings(def, knob, ctx.c, ctx.s);
+    const gbuffer_images& g = ctx.g;
+    measurement m;
+    if (def.guides) {
+        const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{g.positions.cview(), g.normals.cview(),
+                                                                           g.pixel_size.cview(), g.ids.cview()};
+        m = def.first_hit ? measure_aaf(gb, ctx.s, first_hit_tracer{&ctx.tracer}, fs, ctx.c.repeat, ctx.pool)
+                          : measure_aaf(gb, ctx.s, ctx.tracer, fs, ctx.c.repeat, ctx.pool);
+    } else {
+        const aaf::gbuffer<float> gb{g.positions.cview(), g.normals.cview(), g.pixel_size.cview()};
+        m = def.first_hit ? measure_aaf(gb, ctx.s, first_hit_tracer{&ctx.tracer}, fs, ctx.c.repeat, ctx.pool)
+                          : measure_aaf(gb, ctx.s, ctx.tracer, fs, ctx.c.repeat, ctx.pool);
+    }
+    json p = point_json(ctx, m, knob);
+    p["initial_samples"] = fs.sampling.initial_samples;
+    p["max_samples"] = fs.sampling.max_samples;
+    p["mu"] = fs.formulas.mu;
+    return p;
+}
+
+json measure_mc_point(const context& ctx, const method_def& def, std::uint32_t spp) {
+    measurement m;
+    for (std::uint32_t r = 0; r < ctx.c.repeat; ++r) {
+        mc_result res = render_mc(ctx.s, ctx.g, ctx.tracer, {.pattern = def.pattern, .spp = spp, .seed = ctx.c.seed, .pass = 0}, ctx.pool);
+        m.total_ms.push_back(res.total_ms);
+        m.rays_ms.push_back(res.rays_ms);
+        if (r == 0) m.visibility = std::move(res.visibility), m.rays = res.rays;
+    }
+    json p = point_json(ctx, m, spp);
+    p.erase("formulas_ms");
+    return p;
+}
+
+void report_point(const config& c, const std::string& name, const std::string& knob, const json& p) {
+    if (!c.progress) return;
+    const std::string k = knob == "preset" ? std::string("preset") : knob + "=" + fmt("%g", p["knob_value"].get<double>());
+    std::fprintf(stderr, "  %-19s %-19s %8.2f rays/px %9.1f ms (filter %6.1f)  rmse %.5f  ssim %.4f\n", name.c_str(), k.c_str(),
+                 p["rays_per_pixel"].get<double>(), p["time_ms"].get<double>(),
+                 p["filter_ms"].get<double>(), p["rmse"].get<double>(), p["ssim"].get<double>());
+}
+
+std::vector<curve_point> curve_of(const json& method) {
+    std::vector<curve_point> pts;
+    for (const json& p : method["points"]) {
+        const curve_point cp{p["rays_per_pixel"].get<double>(), p["time_ms"].get<double>(), p["rmse"].get<double>()};
+        if (cp.rays > 0 && cp.time > 0 && cp.rmse > 0 && std::isfinite(cp.rays + cp.time + cp.rmse)) pts.push_back(cp);
+    }
+    return pts;
+}
+
+std::string shell_quote(const std::string& s) {
+    std::string q = "'";
+    for (char ch : s) q += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
+    return q + "'";
+}
+
+void write_file(const fs::path& file, const std::string& text) {
+    std::ofstream f(file, std::ios::binary);
+    f << text;
+    f.close();
+    if (!f) throw std::runtime_error("cannot write " + file.string());
+}
+
+}  // namespace
+
+const std::vector<std::string>& method_names() {
+    static const std::vector<std::string> names = [] {
+        std::vector<std::string> n;
+        for (const method_def& d : definitions()) n.push_back(d.name);
+        return n;
+    }();
+    return names;
+}
+
+void check_methods(const std::vector<std::string>& methods) {
+    const auto& known = method_names();
+    for (const std::string& m : methods)
+        if (std::find(known.begin(), known.end(), m) == known.end()) {
+            std::string list;
+            for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
+            throw usage_error("unknown method '" + m + "' (known: " + list + ")");
+        }
+}
+
+equal_cost equal_error_cost(std::vector<curve_point> pts, double target) {
+    if (pts.empty()) throw std::invalid_argument("equal_error_cost: the baseline curve is empty");
+    if (!(target > 0) || !std::isfinite(target)) throw std::invalid_argument("equal_error_cost: the target RMSE must be finite and > 0");
+    for (const curve_point& p : pts)
+        if (!(p.rays > 0 && p.time > 0 && p.rmse > 0) || !std::isfinite(p.rays + p.time + p.rmse))
+            throw std::invalid_argument("equal_error_cost: every baseline point needs finite, positive rays, time and RMSE");
+    std::stable_sort(pts.begin(), pts.end(), [](const curve_point& a, const curve_point& b) { return a.rays < b.rays; });
+    if (pts.front().rmse <= target) {
+        equal_cost e{pts.front().rays, pts.front().time, pts.front().rmse < target, pts.front().rmse < target ? "upper" : "interpolated"};
+        return e;
+    }
+    for (std::size_t i = 0; i + 1 < pts.size(); ++i) {
+        const curve_point& a = pts[i];
+        const curve_point& b = pts[i + 1];
+        if (b.rmse > target) continue;  // a.rmse > target here: the first segment that reaches the target
+        const double f = (std::log(target) - std::log(a.rmse)) / (std::log(b.rmse) - std::log(a.rmse));
+        const auto lerp = [f](double u, double v) { return std::exp(std::log(u) + f * (std::log(v) - std::log(u))); };
+        return {lerp(a.rays, b.rays), lerp(a.time, b.time), false, "interpolated"};
+    }
+    // Never reached: at least the most expensive point's cost.
+    double time = 0;
+    for (const curve_point& p : pts) time = std::max(time, p.time);
+    return {pts.back().rays, time, true, "lower"};
+}
+
+json run(const config& c) {
+    check_methods(c.methods);
+    const auto t_start = clock_type::now();
+    std::vector<const method_def*> selected;
+    bool any_aaf = false;
+    for (const method_def& d : definitions())
+        if (c.methods.empty() || std::find(c.methods.begin(), c.methods.end(), d.name) != c.methods.end()) {
+            selected.push_back(&d);
+            any_aaf |= d.kind != method_kind::mc;
+        }
+    // equal_error needs the baseline.
+    if (any_aaf && std::none_of(selected.begin(), selected.end(), [](const method_def* d) { return d->name == baseline_method; }))
+        selected.insert(selected.begin(), &definitions().front());
+
+    if (c.repeat < 1) throw usage_error("--repeat must be >= 1");
+    scene s = load_scene(c.scene, c.scenes_dir);
+    if (c.width) s.width = *c.width, s.height = *c.height;
+    s.validate();
+    aaf::thread_pool pool(c.threads);
+    const bvh tracer(s.vertices, s.triangles);
+    const gbuffer_images g = render_gbuffer(s, tracer, pool);
+    if (g.surfaces == 0) throw usage_error("scene '" + s.name + "' shows no surface at " + std::to_string(s.width) + "x" + std::to_string(s.height));
+    const std::vector<unsigned char> mask = g.surface_mask();
+    if (c.progress)
+        std::fprintf(stderr, "aaf-tradeoff: scene '%s', %zux%zu, %zu triangles, %zu threads, %zu surface pixels\n", s.name.c_str(), s.width,
+                     s.height, tracer.triangle_count(), pool.size(), g.surfaces);
+
+    // The reference: two independent halves (their own frame seeds, never the measured methods'), averaged.
+    // With σ² the variance of one half, the difference of the halves has variance 2σ² and their average
+    // σ²/2: RMSE(a − b) / 2 estimates the average's own RMSE (its noise; bias both halves share is unseen).
+    const std::uint32_t half = std::max<std::uint32_t>(1, c.reference_spp / 2);
+    const std::uint32_t seed_a = c.seed ^ 0x52454641u, seed_b = c.seed ^ 0x52454642u;  // "REFA", "REFB"
+    const fs::path cache = c.cache;
+    reference_result ra = reference_visibility(s, g, tracer, {.spp = half, .seed = seed_a}, cache, pool, c.progress);
+    reference_result rb = reference_visibility(s, g, tracer, {.spp = half, .seed = seed_b}, cache, pool, c.progress);
+    const aaf::image<float> va = displayable(ra.visibility, g), vb = displayable(rb.visibility, g);
+    aaf::image<float> reference(s.width, s.height);
+    for (std::size_t i = 0; i < reference.size(); ++i) reference.data()[i] = 0.5f * (va.data()[i] + vb.data()[i]);
+    const double reference_rmse = 0.5 * rmse(va, vb, mask);
+    if (c.progress)
+        std::fprintf(stderr, "reference: %u spp (2 x %u)%s, estimated RMSE %.5f\n", 2 * half, half,
+                     ra.from_cache && rb.from_cache ? " (cached)" : "", reference_rmse);
+
+    const context ctx{c, s, tracer, g, reference, mask, pool};
+    json methods = json::object();  // by name; ordered as definitions() at the end
+    double min_aaf_rmse = std::numeric_limits<double>::infinity();
+    // aaf and presets first: their lowest error tells the baseline how far to go.
+    for (const method_def* d : selected) {
+        if (d->kind == method_kind::mc) continue;
+        std::vector<double> knobs;
+        if (d->kind == method_kind::preset) knobs = {0};
+        else if (d->knob == "initial_samples") knobs = c.quick ? std::vector<double>{4, 16} : std::vector<double>{4, 9, 16, 25, 36};
+        else knobs = c.quick ? std::vector<double>{1, 2} : std::vector<double>{1, 1.5, 2, 3, 4};
+        json m{{"name", d->name}, {"kind", d->kind == method_kind::preset ? "preset" : "aaf"}, {"knob", d->knob},
+               {"settings", settings_json(*d, c)}, {"points", json::array()}};
+        for (double k : knobs) {
+            json p = measure_aaf_point(ctx, *d, k);
+            report_point(c, d->name, d->knob, p);
+            min_aaf_rmse = std::min(min_aaf_rmse, p["rmse"].get<double>());
+            m["points"].push_back(std::move(p));
+        }
+        methods[d->name] = std::move(m);
+    }
+    // Unfiltered MC: the baseline doubles its spp until it is below every aaf point's error (so equal error
+    // is interpolated) or reaches max_mc_spp; the other samplers sweep as far, at most 256 spp.
+    std::uint32_t baseline_last = std::max<std::uint32_t>(1, c.max_mc_spp);
+    for (const method_def* d : selected) {
+        if (d->kind != method_kind::mc) continue;
+        const bool is_baseline = d->name == baseline_method;
+        const std::uint32_t cap = is_baseline ? std::max<std::uint32_t>(1, c.max_mc_spp) : std::min<std::uint32_t>(256, baseline_last);
+        json m{{"name", d->name}, {"kind", "mc"}, {"knob", d->knob}, {"settings", settings_json(*d, c)}, {"points", json::array()}};
+        m["settings"]["max_spp"] = cap;
+        if (is_baseline) m["settings"]["stop_rule"] = "doubling until the RMSE is below every aaf and preset point's, or max_mc_spp";
+        for (std::uint32_t spp = 1; spp <= cap; spp *= 2) {
+            json p = measure_mc_point(ctx, *d, spp);
+            report_point(c, d->name, d->knob, p);
+            const double e = p["rmse"].get<double>();
+            m["points"].push_back(std::move(p));
+            if (is_baseline) baseline_last = spp;
+            if (is_baseline && any_aaf && e <= min_aaf_rmse) break;
+            if (spp > cap / 2) break;  // no overflow past 2^31
+        }
+        methods[d->name] = std::move(m);
+    }
+
+    json result;
+    result["format"] = 1;
+    result["generator"] = "aaf-tradeoff";
+    result["scene"] = s.name;
+    result["width"] = s.width;
+    result["height"] = s.height;
+    result["triangles"] = tracer.triangle_count();
+    result["surface_pixels"] = g.surfaces;
+    result["threads"] = pool.size();
+    result["repeat"] = c.repeat;
+    result["seed"] = c.seed;
+    result["quick"] = c.quick;
+    result["max_mc_spp"] = c.max_mc_spp;
+    result["reference_spp"] = 2 * half;
+    result["reference_seeds"] = {seed_a, seed_b};
+    result["reference_rmse_estimate"] = reference_rmse;
+    result["reference_rmse_method"] = "RMSE between the two independent half-spp references, divided by 2";
+    result["reference_ms"] = ra.ms + rb.ms;
+    result["reference_from_cache"] = ra.from_cache && rb.from_cache;
+    result["metric_mask"] = "surface pixels";
+    result["metrics"] = "rmse, max_abs_error and ssim (Wang et al. 2004, 11x11 Gaussian window sigma 1.5, C1 = 0.01^2, "
+                        "C2 = 0.03^2, windows restricted to surface pixels) of visibility in [0, 1] against the reference";
+    result["rays_per_pixel_unit"] = "shadow rays traced / surface pixels";
+    result["timing"] = "median of `repeat` runs of the whole frame (time_ms), its tracing (rays_ms), formulas and filter; "
+                       "images and errors from the first run";
+    result["methods"] = json::array();
+    for (const method_def& d : definitions())
+        if (methods.contains(d.name)) result["methods"].push_back(methods[d.name]);
+
+    json eq = json::array();
+    if (methods.contains(baseline_method)) {
+        const std::vector<curve_point> base = curve_of(methods[baseline_method]);
+        for (const json& m : result["methods"]) {
+            if (m["kind"] == "mc") continue;
+            for (std::size_t i = 0; i < m["points"].size(); ++i) {
+                const json& p = m["points"][i];
+                const double e = p["rmse"].get<double>(), rays = p["rays_per_pixel"].get<double>(), t = p["time_ms"].get<double>();
+                if (base.empty() || !(e > 0) || !(rays > 0) || !(t > 0)) continue;
+                const equal_cost ec = equal_error_cost(base, e);
+                eq.push_back(json{{"method", m["name"]}, {"point", i}, {"knob_value", p["knob_value"]}, {"baseline", baseline_method},
+                              {"rmse", e}, {"rays_per_pixel", rays}, {"time_ms", t}, {"baseline_rays_per_pixel", ec.rays},
+                              {"baseline_time_ms", ec.time}, {"rays_ratio", ec.rays / rays}, {"time_ratio", ec.time / t},
+                              {"extrapolated", ec.extrapolated}, {"bound", ec.bound}});
+            }
+        }
+    }
+    result["equal_error"] = std::move(eq);
+    result["run_ms"] = ms_since(t_start);
+    if (c.progress && std::isfinite(min_aaf_rmse) && reference_rmse > 0.3 * min_aaf_rmse)
+        std::fprintf(stderr, "aaf-tradeoff: note: the reference's own RMSE (%.5f) is not small next to the best aaf RMSE (%.5f): it "
+                             "adds in quadrature to every point's (equal-error ratios, compared at equal measured error, stay "
+                             "fair); raise --reference-spp for truer absolute errors\n", reference_rmse, min_aaf_rmse);
+    return result;
+}
+
+std::string summary_markdown(const json& r) {
+    std::ostringstream o;
+    o << "# aaf-tradeoff: " << r["scene"].get<std::string>() << ", " << r["width"] << "x" << r["height"] << ", " << r["threads"]
+      << " threads\n\n";
+    o << "Reference: " << r["reference_spp"] << " spp (two independent halves), estimated RMSE "
+      << fmt("%.5f", r["reference_rmse_estimate"].get<double>()) << ". Errors over " << r["surface_pixels"]
+      << " surface pixels; rays per surface pixel; times are medians of " << r["repeat"] << " runs (ms).\n\n";
+    for (const json& m : r["methods"]) {
+        o << "## " << m["name"].get<std::string>() << "\n\n" << m["settings"]["description"].get<std::string>() << ".\n\n";
+        o << "| " << m["knob"].get<std::string>() << " | rays/px | time ms | rays ms | filter ms | filter % | RMSE | SSIM |\n";
+        o << "|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+        for (const json& p : m["points"]) {
+            const std::string knob = m["kind"] == "preset" ? std::string("-") : fmt("%g", p["knob_value"].get<double>());
+            o << "| " << knob << " | " << fmt("%.2f", p["rays_per_pixel"].get<double>()) << " | " << fmt("%.1f", p["time_ms"].get<double>())
+              << " | " << fmt("%.1f", p["rays_ms"].get<double>()) << " | " << fmt("%.1f", p["filter_ms"].get<double>()) << " | "
+              << fmt("%.1f", 100 * p["filter_share"].get<double>()) << " | " << fmt("%.5f", p["rmse"].get<double>()) << " | "
+              << fmt("%.4f", p["ssim"].get<double>()) << " |\n";
+        }
+        o << "\n";
+    }
+    o << "## Equal error against " << baseline_method << "\n\n";
+    o << "How many more rays and how much more time unfiltered stratified Monte Carlo needs for the same RMSE "
+         "(interpolated on its curve in log-log; \">\" : its sweep never got this low, \"<\" : even 1 spp is as good).\n\n";
+    o << "| method | knob | rays/px | time ms | RMSE | MC rays/px | MC time ms | rays ratio | time ratio |\n";
+    o << "|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    for (const json& e : r["equal_error"]) {
+        const std::string b = e["bound"] == "lower" ? "> " : e["bound"] == "upper" ? "< " : "";
+        const std::string method = e["method"].get<std::string>();
+        const std::string knob = method.rfind("preset_", 0) == 0 ? std::string("-") : fmt("%g", e["knob_value"].get<double>());
+        o << "| " << method << " | " << knob << " | "
+          << fmt("%.2f", e["rays_per_pixel"].get<double>()) << " | " << fmt("%.1f", e["time_ms"].get<double>()) << " | "
+          << fmt("%.5f", e["rmse"].get<double>()) << " | " << b << fmt("%.1f", e["baseline_rays_per_pixel"].get<double>()) << " | " << b
+          << fmt("%.1f", e["baseline_time_ms"].get<double>()) << " | " << b << fmt("%.2f", e["rays_ratio"].get<double>()) << "x | " << b
+          << fmt("%.2f", e["time_ratio"].get<double>()) << "x |\n";
+    }
+    return o.str();
+}
+
+std::string gnuplot_script(const json& r) {
+    // Colours: MC in greys/browns (dashed), aaf variants in distinct hues (solid), presets as large markers.
+    static const char* const colours[] = {"#222222", "#8c564b", "#7f7f7f", "#1f77b4", "#d62728", "#2ca02c",
+                                          "#9467bd", "#ff7f0e", "#17becf", "#e377c2", "#bcbd22"};
+    std::ostringstream o;
+    o << "# Generated by aaf-tradeoff from tradeoff.json (" << r["scene"].get<std::string>()
+      << "). Run `gnuplot tradeoff.gp` in this folder to redraw rmse_vs_rays.png and rmse_vs_time.png.\n";
+    std::vector<std::string> blocks;
+    for (const json& m : r["methods"]) {
+        std::string block = m["name"].get<std::string>();
+        block.insert(block.begin(), '$');  // not "$" + name: GCC 12's -Wrestrict false positive (PR 105329)
+        blocks.push_back(block);
+        o << block << " << EOD\n# rays_per_pixel time_ms rmse ssim knob_value\n";
+        for (const json& p : m["points"])
+            o << fmt("%.6g", p["rays_per_pixel"].get<double>()) << ' ' << fmt("%.6g", p["time_ms"].get<double>()) << ' '
+              << fmt("%.6g", p["rmse"].get<double>()) << ' ' << fmt("%.6g", p["ssim"].get<double>()) << ' '
+              << fmt("%g", p["knob_value"].get<double>()) << '\n';
+        o << "EOD\n";
+    }
+    o << "set terminal pngcairo size 1200,800 noenhanced font 'sans,12'\n"
+         "set logscale xy\n"
+         "set format x '%g'\nset format y '%g'\n"
+         "set grid xtics ytics mxtics mytics lc rgb '#dddddd'\n"
+         "set key outside right top box opaque\n"
+         "set offsets graph 0.02, graph 0.02, graph 0.04, graph 0.04\n"
+         "set ylabel 'RMSE of visibility (surface pixels)'\n";
+    o << "set title '" << r["scene"].get<std::string>() << ", " << r["width"] << "x" << r["height"] << ", " << r["threads"]
+      << " threads; reference " << r["reference_spp"] << " spp (RMSE ~" << fmt("%.2g", r["reference_rmse_estimate"].get<double>())
+      << ")'\n";
+    const auto plot = [&](const char* output, const char* xlabel, int xcol) {
+        o << "set output '" << output << "'\nset xlabel '" << xlabel << "'\nplot \\\n";
+        std::size_t i = 0;
+        for (const json& m : r["methods"]) {
+            const std::string kind = m["kind"].get<std::string>();
+            const char* colour = colours[i % (sizeof colours / sizeof *colours)];
+            o << "  " << blocks[i] << " using " << xcol << ":3 ";
+            if (kind == "mc") o << "with linespoints dt 2 lw 2 pt 6 ps 1.2";
+            else if (kind == "preset") o << "with points pt " << (5 + 2 * static_cast<int>(i % 3)) << " ps 2.5";
+            else o << "with linespoints lw 2 pt 7 ps 1.2";
+            o << " lc rgb '" << colour << "' title '" << m["name"].get<std::string>() << "'";
+            o << (++i < r["methods"].size() ? ", \\\n" : "\n");
+        }
+    };
+    plot("rmse_vs_rays.png", "shadow rays per surface pixel", 1);
+    plot("rmse_vs_time.png", ("wall time per frame, ms (median of " + std::to_string(r["repeat"].get<int>()) + " runs)").c_str(), 2);
+    o << "unset output\n";
+    return o.str();
+}
+
+void write_outputs(const json& result, const fs::path& out, bool plot) {
+    fs::create_directories(out);
+    const fs::path staging = out / (".tradeoff-tmp-" + std::to_string(::getpid()));
+    struct cleanup {
+        fs::path dir;
+        ~cleanup() {
+            std::error_code ec;
+            fs::remove_all(dir, ec);
+        }
+    } guard{staging};
+    fs::remove_all(staging);
+    fs::create_directories(staging);
+    std::vector<std::string> files = {"tradeoff.json", "summary.md", "tradeoff.gp"};
+    write_file(staging / "tradeoff.json", result.dump(2) + "\n");
+    write_file(staging / "summary.md", summary_markdown(result));
+    write_file(staging / "tradeoff.gp", gnuplot_script(result));
+    if (plot) {
+        if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
+            std::fprintf(stderr, "aaf-tradeoff: gnuplot not found (Debian: gnuplot-nox); no plots, run `gnuplot tradeoff.gp` in %s later\n",
+                         out.string().c_str());
+        } else if (std::system(("cd " + shell_quote(staging.string()) + " && gnuplot tradeoff.gp 2> gnuplot.log").c_str()) != 0) {
+            std::string first;
+            std::ifstream log(staging / "gnuplot.log");
+            std::getline(log, first);
+            std::fprintf(stderr, "aaf-tradeoff: gnuplot failed (%s); no plots\n", first.c_str());
+        } else {
+            files.push_back("rmse_vs_rays.png");
+            files.push_back("rmse_vs_time.png");
+        }
+    }
+    for (const std::string& f : files) fs::rename(staging / f, out / f);
+}
+
+}  // namespace aaf_examples::tradeoff
