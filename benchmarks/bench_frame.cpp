@@ -2,7 +2,8 @@
 // A whole frame, aaf::render_frame, with the examples' BVH (examples/common/bvh.hpp) as the tracer, on
 // scenes/bunny.json (the Stanford bunny on a ground plane under a square light) at 640×480, default
 // frame_settings (9 initial samples, μ = 2, at most 100 per pixel: ~20 rays per pixel), 1 and 2 threads.
-// The G-buffer (pinhole camera, primary rays through the same BVH) is built once, outside the timing.
+// The G-buffer (the renderers' aaf_examples::render_gbuffer: pinhole camera, primary rays through the same
+// BVH) is built once, outside the timing.
 //
 //   BM_frame/bunny/640x480/threads:T/light_plane:L
 //
@@ -16,69 +17,28 @@
 
 #include <benchmark/benchmark.h>
 
-#include <cmath>
 #include <cstdint>
 #include <exception>
 #include <filesystem>
-#include <limits>
 #include <memory>
 #include <string>
-
-#include <glm/geometric.hpp>
-#include <glm/trigonometric.hpp>
 
 #include <aaf/aaf.hpp>
 
 #include "bench_common.hpp"
 #include "common/bvh.hpp"
+#include "common/render_support.hpp"
 #include "common/scene.hpp"
 
 namespace {
 
-/// The scene, its BVH and its G-buffer, built once per process.
+/// The scene, its BVH and its G-buffer (aaf_examples::render_gbuffer, the renderers' own), built once.
 struct frame_scene {
     aaf_examples::scene scene;
     std::unique_ptr<aaf_examples::bvh> tree;
-    aaf::image<glm::vec3> positions, normals;
-    aaf::image<float> pixel_size;
-    aaf::image<std::uint32_t> ids;
-    std::size_t surfaces = 0;
+    aaf_examples::gbuffer_images g;
     std::string error;  // non-empty: the scene could not be loaded
 };
-
-/// The G-buffer of the scene's pinhole camera (as examples/aaf-render.cpp builds it).
-void build_gbuffer(frame_scene& f) {
-    const aaf_examples::scene& s = f.scene;
-    const std::size_t w = s.width, h = s.height;
-    const float nan = std::numeric_limits<float>::quiet_NaN();
-    f.positions.reset(w, h);
-    f.normals.reset(w, h);
-    f.pixel_size.reset(w, h);
-    f.ids.reset(w, h);
-    f.positions.fill(glm::vec3(nan));
-    f.normals.fill(glm::vec3(nan));
-    f.pixel_size.fill(0.0f);
-    f.ids.fill(0xffffffffu);
-    const float tan_half = std::tan(0.5f * glm::radians(s.view.fov_y_degrees));
-    const glm::vec3 fwd = glm::normalize(s.view.target - s.view.position);
-    const glm::vec3 right = glm::normalize(glm::cross(fwd, s.view.up)), up = glm::cross(right, fwd);
-    const float aspect = static_cast<float>(w) / static_cast<float>(h);
-    for (std::size_t y = 0; y < h; ++y)
-        for (std::size_t x = 0; x < w; ++x) {
-            const float sx = (2.0f * (static_cast<float>(x) + 0.5f) / static_cast<float>(w) - 1.0f) * tan_half * aspect;
-            const float sy = (1.0f - 2.0f * (static_cast<float>(y) + 0.5f) / static_cast<float>(h)) * tan_half;
-            const glm::vec3 d = glm::normalize(fwd + sx * right + sy * up);
-            const aaf_examples::ray_hit hit = f.tree->nearest_hit(s.view.position, d);
-            if (!hit.hit()) continue;
-            const glm::uvec3 tri = s.triangles[hit.triangle];
-            f.positions(x, y) = (1.0f - hit.barycentrics.x - hit.barycentrics.y) * s.vertices[tri.x] +
-                                hit.barycentrics.x * s.vertices[tri.y] + hit.barycentrics.y * s.vertices[tri.z];
-            f.normals(x, y) = glm::dot(hit.normal, d) < 0.0f ? hit.normal : -hit.normal;
-            f.ids(x, y) = s.triangle_object[hit.triangle];
-            f.pixel_size(x, y) = aaf::pinhole_pixel_size(hit.t, tan_half, static_cast<std::uint32_t>(h));
-            ++f.surfaces;
-        }
-}
 
 const frame_scene& get_scene() {
     static const frame_scene f = [] {
@@ -87,7 +47,8 @@ const frame_scene& get_scene() {
         try {
             r.scene = aaf_examples::load_scene_file(file);
             r.tree = std::make_unique<aaf_examples::bvh>(r.scene.vertices, r.scene.triangles);
-            build_gbuffer(r);
+            aaf::thread_pool pool;
+            r.g = aaf_examples::render_gbuffer(r.scene, *r.tree, pool);
         } catch (const std::exception& e) {
             r.error = file.string() + ": " + e.what();
         }
@@ -104,8 +65,8 @@ void BM_frame(benchmark::State& state) {
         return;
     }
     const std::size_t w = f.scene.width, h = f.scene.height;
-    const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{f.positions.cview(), f.normals.cview(),
-                                                                       f.pixel_size.cview(), f.ids.cview()};
+    const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{f.g.positions.cview(), f.g.normals.cview(),
+                                                                       f.g.pixel_size.cview(), f.g.ids.cview()};
     aaf::frame_settings<float> settings;
     settings.filter.space = state.range(1) ? aaf::offset_space::light_plane : aaf::offset_space::image;
     aaf::frame_workspace<float> ws;
@@ -126,8 +87,8 @@ void BM_frame(benchmark::State& state) {
     state.counters["filter_ms"] = filter / n;
     state.counters["filter_share"] = filter / total;
     state.counters["rays_per_px"] = rays / n / static_cast<double>(w * h);
-    state.counters["rays_per_surface_px"] = rays / n / static_cast<double>(f.surfaces);
-    state.counters["filter_taps_per_px_pass"] = aaf_bench::mean_taps(ws.filter_width, f.pixel_size, settings.filter);
+    state.counters["rays_per_surface_px"] = rays / n / static_cast<double>(f.g.surfaces);
+    state.counters["filter_taps_per_px_pass"] = aaf_bench::mean_taps(ws.filter_width, f.g.pixel_size, settings.filter);
     state.counters["Mrays_per_s"] = benchmark::Counter(rays * 1e-6, benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_frame)
