@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "common/render_support.hpp"
@@ -51,6 +52,8 @@ const char* const help_text =
     "                        below every aaf point's RMSE [1024]\n"
     "  --quick               short sweeps (a test run)\n"
     "  --no-plot             skip gnuplot (the JSON, summary and script are still written)\n"
+    "  --replot              render nothing: rewrite OUT/summary.md, OUT/tradeoff.gp and the plots from\n"
+    "                        OUT/tradeoff.json (after a change to their layout)\n"
     "  --help                this text\n"
     "Large optional meshes (the sports car) are found through the AAF_SCENES_DIR environment variable.\n";
 
@@ -58,6 +61,7 @@ struct options {
     aaf_examples::tradeoff::config config;
     fs::path out = "aaf-tradeoff-output";
     bool plot = true;
+    bool replot = false;
 };
 
 std::vector<std::string> split_list(const std::string& v) {
@@ -104,13 +108,28 @@ options parse(int argc, char** argv) {
             aaf_examples::tradeoff::check_methods(c.methods);
         } else if (a == "--quick") c.quick = true;
         else if (a == "--no-plot") o.plot = false;
+        else if (a == "--replot") o.replot = true;
         else throw usage_error("unknown option '" + a + "' (see --help)");
     }
     if (c.cache.empty()) c.cache = o.out / "cache";
     return o;
 }
 
+nlohmann::json read_json(const fs::path& file) {
+    std::ifstream in(file);
+    if (!in) throw usage_error("--replot: cannot open " + file.string());
+    try {
+        return nlohmann::json::parse(in);
+    } catch (const nlohmann::json::exception& e) {
+        throw usage_error("--replot: " + file.string() + " is not valid JSON (" + e.what() + ")");
+    }
+}
+
 int run(const options& o) {
+    if (o.replot) {
+        aaf_examples::tradeoff::write_outputs(read_json(o.out / "tradeoff.json"), o.out, o.plot);
+        return 0;
+    }
     const nlohmann::json result = aaf_examples::tradeoff::run(o.config);
     aaf_examples::tradeoff::write_outputs(result, o.out, o.plot);
     std::fprintf(stderr, "aaf-tradeoff: %zu methods, %zu equal-error entries in %s (%.1f s)\n", result["methods"].size(),

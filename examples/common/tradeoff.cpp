@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 
@@ -170,31 +171,15 @@ double median(std::vector<double> v) {
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-/// One measured point before metrics: the image of the first run, the timings of every run.
+/// One point of one method: its image's errors (from its first run) and the timings of every run.
 struct measurement {
-    aaf::image<float> visibility;
+    const method_def* def = nullptr;
+    double knob = 0;
     std::uint64_t rays = 0;
+    double rmse = 0, ssim = 0, max_abs_error = 0;
+    json extra = json::object();  ///< the settings fields that vary along the knob
     std::vector<double> total_ms, rays_ms, formulas_ms, filter_ms;
 };
-
-template <class Ids, class Tracer>
-measurement measure_aaf(const aaf::gbuffer<float, Ids>& gb, const scene& s, const Tracer& tracer,
-                        const aaf::frame_settings<float>& fs, std::uint32_t repeat, aaf::thread_pool& pool) {
-    measurement m;
-    m.visibility = aaf::image<float>(s.width, s.height);
-    aaf::image<float> out(s.width, s.height);
-    aaf::frame_workspace<float> ws;
-    ws.resize(s.width, s.height);  // allocation is not part of a frame
-    for (std::uint32_t r = 0; r < repeat; ++r) {
-        const aaf::frame_report rep = aaf::render_frame(gb, s.light, tracer, {r == 0 ? m.visibility.view() : out.view()}, ws, fs, pool);
-        if (r == 0) m.rays = rep.rays();
-        m.total_ms.push_back(rep.total_ms);
-        m.rays_ms.push_back(rep.initial_ms + rep.adaptive_ms);
-        m.formulas_ms.push_back(rep.formulas_ms);
-        m.filter_ms.push_back(rep.filter_ms);
-    }
-    return m;
-}
 
 struct context {
     const config& c;
@@ -206,63 +191,70 @@ struct context {
     aaf::thread_pool& pool;
 };
 
-json point_json(const context& ctx, const measurement& m, double knob) {
+/// One aaf frame into `out`, its timings appended to `m`.
+template <class Ids, class Tracer>
+void time_aaf(const aaf::gbuffer<float, Ids>& gb, const scene& s, const Tracer& tracer, const aaf::frame_settings<float>& fs,
+              aaf::image<float>& out, measurement& m, aaf::thread_pool& pool) {
+    aaf::frame_workspace<float> ws;
+    ws.resize(s.width, s.height);  // allocation is not part of a frame
+    const aaf::frame_report rep = aaf::render_frame(gb, s.light, tracer, {out.view()}, ws, fs, pool);
+    m.rays = rep.rays();
+    m.total_ms.push_back(rep.total_ms);
+    m.rays_ms.push_back(rep.initial_ms + rep.adaptive_ms);
+    m.formulas_ms.push_back(rep.formulas_ms);
+    m.filter_ms.push_back(rep.filter_ms);
+}
+
+/// Renders point `m` once more, appending its timings; the first time also measures its errors.
+void run_point(const context& ctx, measurement& m) {
+    const bool first = m.total_ms.empty();
+    const method_def& def = *m.def;
+    aaf::image<float> image(ctx.s.width, ctx.s.height);
+    if (def.kind == method_kind::mc) {
+        mc_result res = render_mc(ctx.s, ctx.g, ctx.tracer,
+                                  {.pattern = def.pattern, .spp = static_cast<std::uint32_t>(m.knob), .seed = ctx.c.seed, .pass = 0}, ctx.pool);
+        m.total_ms.push_back(res.total_ms);
+        m.rays_ms.push_back(res.rays_ms);
+        m.rays = res.rays;
+        image = std::move(res.visibility);
+    } else {
+        const aaf::frame_settings<float> fs = aaf_settings(def, m.knob, ctx.c, ctx.s);
+        const gbuffer_images& g = ctx.g;
+        if (def.guides) {
+            const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{g.positions.cview(), g.normals.cview(),
+                                                                               g.pixel_size.cview(), g.ids.cview()};
+            if (def.first_hit) time_aaf(gb, ctx.s, first_hit_tracer{&ctx.tracer}, fs, image, m, ctx.pool);
+            else time_aaf(gb, ctx.s, ctx.tracer, fs, image, m, ctx.pool);
+        } else {
+            const aaf::gbuffer<float> gb{g.positions.cview(), g.normals.cview(), g.pixel_size.cview()};
+            if (def.first_hit) time_aaf(gb, ctx.s, first_hit_tracer{&ctx.tracer}, fs, image, m, ctx.pool);
+            else time_aaf(gb, ctx.s, ctx.tracer, fs, image, m, ctx.pool);
+        }
+        m.extra = {{"initial_samples", fs.sampling.initial_samples}, {"max_samples", fs.sampling.max_samples}, {"mu", fs.formulas.mu}};
+    }
+    if (first) {
+        m.rmse = rmse(image, ctx.reference, ctx.mask);
+        m.ssim = ssim(image, ctx.reference, ctx.mask);
+        m.max_abs_error = max_abs_error(image, ctx.reference, ctx.mask);
+    }
+}
+
+json point_json(const context& ctx, const measurement& m) {
     const double pixels = static_cast<double>(std::max<std::size_t>(ctx.g.surfaces, 1));
     json p;
-    p["knob_value"] = knob;
+    p["knob_value"] = m.knob;
     p["rays_per_pixel"] = static_cast<double>(m.rays) / pixels;
     p["time_ms"] = median(m.total_ms);
     p["rays_ms"] = median(m.rays_ms);
     p["filter_ms"] = m.filter_ms.empty() ? 0.0 : median(m.filter_ms);
     if (!m.formulas_ms.empty()) p["formulas_ms"] = median(m.formulas_ms);
     p["filter_share"] = p["time_ms"].get<double>() > 0 ? p["filter_ms"].get<double>() / p["time_ms"].get<double>() : 0.0;
-    p["rmse"] = rmse(m.visibility, ctx.reference, ctx.mask);
-    p["ssim"] = ssim(m.visibility, ctx.reference, ctx.mask);
-    p["max_abs_error"] = max_abs_error(m.visibility, ctx.reference, ctx.mask);
+    p["rmse"] = m.rmse;
+    p["ssim"] = m.ssim;
+    p["max_abs_error"] = m.max_abs_error;
     p["time_ms_runs"] = m.total_ms;
+    p.update(m.extra);
     return p;
-}
-
-json measure_aaf_point(const context& ctx, const method_def& def, double knob) {
-    const aaf::frame_settings<float> fs = aaf_settings(def, knob, ctx.c, ctx.s);
-    const gbuffer_images& g = ctx.g;
-    measurement m;
-    if (def.guides) {
-        const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{g.positions.cview(), g.normals.cview(),
-                                                                           g.pixel_size.cview(), g.ids.cview()};
-        m = def.first_hit ? measure_aaf(gb, ctx.s, first_hit_tracer{&ctx.tracer}, fs, ctx.c.repeat, ctx.pool)
-                          : measure_aaf(gb, ctx.s, ctx.tracer, fs, ctx.c.repeat, ctx.pool);
-    } else {
-        const aaf::gbuffer<float> gb{g.positions.cview(), g.normals.cview(), g.pixel_size.cview()};
-        m = def.first_hit ? measure_aaf(gb, ctx.s, first_hit_tracer{&ctx.tracer}, fs, ctx.c.repeat, ctx.pool)
-                          : measure_aaf(gb, ctx.s, ctx.tracer, fs, ctx.c.repeat, ctx.pool);
-    }
-    json p = point_json(ctx, m, knob);
-    p["initial_samples"] = fs.sampling.initial_samples;
-    p["max_samples"] = fs.sampling.max_samples;
-    p["mu"] = fs.formulas.mu;
-    return p;
-}
-
-json measure_mc_point(const context& ctx, const method_def& def, std::uint32_t spp) {
-    measurement m;
-    for (std::uint32_t r = 0; r < ctx.c.repeat; ++r) {
-        mc_result res = render_mc(ctx.s, ctx.g, ctx.tracer, {.pattern = def.pattern, .spp = spp, .seed = ctx.c.seed, .pass = 0}, ctx.pool);
-        m.total_ms.push_back(res.total_ms);
-        m.rays_ms.push_back(res.rays_ms);
-        if (r == 0) m.visibility = std::move(res.visibility), m.rays = res.rays;
-    }
-    json p = point_json(ctx, m, spp);
-    p.erase("formulas_ms");
-    return p;
-}
-
-void report_point(const config& c, const std::string& name, const std::string& knob, const json& p) {
-    if (!c.progress) return;
-    const std::string k = knob == "preset" ? std::string("preset") : knob + "=" + fmt("%g", p["knob_value"].get<double>());
-    std::fprintf(stderr, "  %-19s %-19s %8.2f rays/px %9.1f ms (filter %6.1f)  rmse %.5f  ssim %.4f\n", name.c_str(), k.c_str(),
-                 p["rays_per_pixel"].get<double>(), p["time_ms"].get<double>(),
-                 p["filter_ms"].get<double>(), p["rmse"].get<double>(), p["ssim"].get<double>());
 }
 
 std::vector<curve_point> curve_of(const json& method) {
@@ -377,7 +369,24 @@ json run(const config& c) {
                      ra.from_cache && rb.from_cache ? " (cached)" : "", reference_rmse);
 
     const context ctx{c, s, tracer, g, reference, mask, pool};
-    json methods = json::object();  // by name; ordered as definitions() at the end
+    // Every point is rendered once (image, errors, first timing), in method order; then `repeat - 1` more
+    // rounds time every point again. Interleaving the rounds spreads each point's runs over the whole
+    // measurement, so a burst of load from elsewhere on the machine lands in one run of many points
+    // (which the median discards) rather than in every run of one method.
+    std::vector<measurement> points;  // in the order measured
+    const auto measure = [&](const method_def* d, double knob) -> const measurement& {
+        measurement m;
+        m.def = d, m.knob = knob;
+        run_point(ctx, m);
+        if (c.progress) {
+            const std::string k = d->kind == method_kind::preset ? std::string("preset") : d->knob + "=" + fmt("%g", knob);
+            std::fprintf(stderr, "  %-19s %-19s %8.2f rays/px %9.1f ms (filter %6.1f)  rmse %.5f  ssim %.4f\n", d->name.c_str(),
+                         k.c_str(), static_cast<double>(m.rays) / static_cast<double>(g.surfaces), m.total_ms.back(),
+                         m.filter_ms.empty() ? 0.0 : m.filter_ms.back(), m.rmse, m.ssim);
+        }
+        points.push_back(std::move(m));
+        return points.back();
+    };
     double min_aaf_rmse = std::numeric_limits<double>::infinity();
     // aaf and presets first: their lowest error tells the baseline how far to go.
     for (const method_def* d : selected) {
@@ -386,36 +395,41 @@ json run(const config& c) {
         if (d->kind == method_kind::preset) knobs = {0};
         else if (d->knob == "initial_samples") knobs = c.quick ? std::vector<double>{4, 16} : std::vector<double>{4, 9, 16, 25, 36};
         else knobs = c.quick ? std::vector<double>{1, 2} : std::vector<double>{1, 1.5, 2, 3, 4};
-        json m{{"name", d->name}, {"kind", d->kind == method_kind::preset ? "preset" : "aaf"}, {"knob", d->knob},
-               {"settings", settings_json(*d, c)}, {"points", json::array()}};
-        for (double k : knobs) {
-            json p = measure_aaf_point(ctx, *d, k);
-            report_point(c, d->name, d->knob, p);
-            min_aaf_rmse = std::min(min_aaf_rmse, p["rmse"].get<double>());
-            m["points"].push_back(std::move(p));
-        }
-        methods[d->name] = std::move(m);
+        for (double k : knobs) min_aaf_rmse = std::min(min_aaf_rmse, measure(d, k).rmse);
     }
     // Unfiltered MC: the baseline doubles its spp until it is below every aaf point's error (so equal error
     // is interpolated) or reaches max_mc_spp; the other samplers sweep as far, at most 256 spp.
     std::uint32_t baseline_last = std::max<std::uint32_t>(1, c.max_mc_spp);
+    std::map<std::string, std::uint32_t> mc_cap;
     for (const method_def* d : selected) {
         if (d->kind != method_kind::mc) continue;
         const bool is_baseline = d->name == baseline_method;
         const std::uint32_t cap = is_baseline ? std::max<std::uint32_t>(1, c.max_mc_spp) : std::min<std::uint32_t>(256, baseline_last);
-        json m{{"name", d->name}, {"kind", "mc"}, {"knob", d->knob}, {"settings", settings_json(*d, c)}, {"points", json::array()}};
-        m["settings"]["max_spp"] = cap;
-        if (is_baseline) m["settings"]["stop_rule"] = "doubling until the RMSE is below every aaf and preset point's, or max_mc_spp";
+        mc_cap[d->name] = cap;
         for (std::uint32_t spp = 1; spp <= cap; spp *= 2) {
-            json p = measure_mc_point(ctx, *d, spp);
-            report_point(c, d->name, d->knob, p);
-            const double e = p["rmse"].get<double>();
-            m["points"].push_back(std::move(p));
+            const double e = measure(d, spp).rmse;
             if (is_baseline) baseline_last = spp;
             if (is_baseline && any_aaf && e <= min_aaf_rmse) break;
             if (spp > cap / 2) break;  // no overflow past 2^31
         }
-        methods[d->name] = std::move(m);
+    }
+    for (std::uint32_t round = 1; round < c.repeat; ++round) {
+        if (c.progress) std::fprintf(stderr, "timing round %u of %u over all %zu points...\n", round + 1, c.repeat, points.size());
+        for (measurement& m : points) run_point(ctx, m);
+    }
+
+    json methods = json::object();  // by name; ordered as definitions() at the end
+    for (const measurement& m : points) {
+        const method_def& d = *m.def;
+        if (!methods.contains(d.name)) {
+            json j{{"name", d.name}, {"kind", d.kind == method_kind::mc ? "mc" : d.kind == method_kind::preset ? "preset" : "aaf"},
+                   {"knob", d.knob}, {"settings", settings_json(d, c)}, {"points", json::array()}};
+            if (d.kind == method_kind::mc) j["settings"]["max_spp"] = mc_cap[d.name];
+            if (d.name == baseline_method)
+                j["settings"]["stop_rule"] = "doubling until the RMSE is below every aaf and preset point's, or max_mc_spp";
+            methods[d.name] = std::move(j);
+        }
+        methods[d.name]["points"].push_back(point_json(ctx, m));
     }
 
     json result;
@@ -441,8 +455,8 @@ json run(const config& c) {
     result["metrics"] = "rmse, max_abs_error and ssim (Wang et al. 2004, 11x11 Gaussian window sigma 1.5, C1 = 0.01^2, "
                         "C2 = 0.03^2, windows restricted to surface pixels) of visibility in [0, 1] against the reference";
     result["rays_per_pixel_unit"] = "shadow rays traced / surface pixels";
-    result["timing"] = "median of `repeat` runs of the whole frame (time_ms), its tracing (rays_ms), formulas and filter; "
-                       "images and errors from the first run";
+    result["timing"] = "median of `repeat` runs of the whole frame (time_ms), its tracing (rays_ms), formulas and filter, "
+                       "each taken separately; the runs are interleaved rounds over all points; images and errors from the first run";
     result["methods"] = json::array();
     for (const method_def& d : definitions())
         if (methods.contains(d.name)) result["methods"].push_back(methods[d.name]);
@@ -535,21 +549,36 @@ std::string gnuplot_script(const json& r) {
          "set format x '%g'\nset format y '%g'\n"
          "set grid xtics ytics mxtics mytics lc rgb '#dddddd'\n"
          "set key outside right top box opaque\n"
-         "set offsets graph 0.02, graph 0.02, graph 0.04, graph 0.04\n"
+
          "set ylabel 'RMSE of visibility (surface pixels)'\n";
     o << "set title '" << r["scene"].get<std::string>() << ", " << r["width"] << "x" << r["height"] << ", " << r["threads"]
       << " threads; reference " << r["reference_spp"] << " spp (RMSE ~" << fmt("%.2g", r["reference_rmse_estimate"].get<double>())
       << ")'\n";
+    // Ranges from the data with a margin of a factor 1.25 (log axes autoscaled to whole decades waste most
+    // of the plot).
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {0, 0, 0};  // rays, time, rmse
+    for (const json& m : r["methods"])
+        for (const json& p : m["points"]) {
+            const double v[3] = {p["rays_per_pixel"].get<double>(), p["time_ms"].get<double>(), p["rmse"].get<double>()};
+            for (int k = 0; k < 3; ++k)
+                if (v[k] > 0 && std::isfinite(v[k])) lo[k] = std::min(lo[k], v[k]), hi[k] = std::max(hi[k], v[k]);
+        }
+    const auto range = [&](const char* axis, int k) {
+        if (hi[k] > 0) o << "set " << axis << "range [" << fmt("%.6g", lo[k] / 1.25) << ":" << fmt("%.6g", hi[k] * 1.25) << "]\n";
+    };
+    range("y", 2);
     const auto plot = [&](const char* output, const char* xlabel, int xcol) {
+        range("x", xcol - 1);
         o << "set output '" << output << "'\nset xlabel '" << xlabel << "'\nplot \\\n";
-        std::size_t i = 0;
+        std::size_t i = 0, aaf_index = 0;
+        static const int aaf_point_types[5] = {7, 9, 5, 13, 11};  // filled: circle, triangle, square, diamond, inverted triangle
         for (const json& m : r["methods"]) {
             const std::string kind = m["kind"].get<std::string>();
             const char* colour = colours[i % (sizeof colours / sizeof *colours)];
             o << "  " << blocks[i] << " using " << xcol << ":3 ";
             if (kind == "mc") o << "with linespoints dt 2 lw 2 pt 6 ps 1.2";
             else if (kind == "preset") o << "with points pt " << (5 + 2 * static_cast<int>(i % 3)) << " ps 2.5";
-            else o << "with linespoints lw 2 pt 7 ps 1.2";
+            else o << "with linespoints lw 2 pt " << aaf_point_types[aaf_index++ % 5] << " ps 1.3";
             o << " lc rgb '" << colour << "' title '" << m["name"].get<std::string>() << "'";
             o << (++i < r["methods"].size() ? ", \\\n" : "\n");
         }
