@@ -804,3 +804,157 @@ TEST_CASE("filter: identical bits with sequential, thread_pool(2), thread_pool(3
         CHECK(bitwise_equal(go(pool3), go(pool3)));
     }
 }
+
+namespace {
+/// One pass evaluated pixel by pixel in the most direct way (the implementation before the lane-parallel
+/// rewrite): for each centre, k = 1..radius, the −k side then the +k side, the weight recurrence
+/// w_k = w_{k-1}·m_k, m_k *= q in image space and one std::exp per tap on the light plane. A non-finite
+/// centre uses the library's scalar rule (detail::non_finite_centre_average), which the fast path also calls.
+template <bool Horizontal, class T, class G>
+void per_pixel_pass(aaf::const_image_view<T> src, aaf::image_view<T> dst, aaf::const_image_view<T> beta,
+                    aaf::const_image_view<T> d, const G& g, const glm::vec<3, T>& ln, const aaf::filter_settings<T>& s) {
+    namespace ad = aaf::detail;
+    constexpr auto dir = Horizontal ? ad::pass_direction::horizontal : ad::pass_direction::vertical;
+    const bool light_plane = s.space == aaf::offset_space::light_plane;
+    const std::size_t w = src.width(), h = src.height();
+    const T cos_thr = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
+    for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x) {
+            const T centre = src(x, y), b = beta(x, y), dd = d(x, y), beta_px = b / dd;
+            const std::size_t radius = (b > T(0) && dd > T(0)) ? ad::kernel_radius(beta_px, s) : 0;
+            dst(x, y) = centre;
+            if (radius == 0) continue;
+            const ad::guide_center<T, G> gc(g, x, y);
+            glm::vec<3, T> p{0};
+            const T inv_two_beta2 = T(1) / (T(2) * b * b);
+            if (light_plane) {
+                p = g.positions(x, y);
+                if (!std::isfinite(p.x + p.y + p.z)) continue;
+            }
+            const std::size_t pos = Horizontal ? x : y, extent = Horizontal ? w : h;
+            const T a = T(1) / (T(2) * beta_px * beta_px);
+            if (!std::isfinite(centre)) {
+                dst(x, y) = light_plane ? ad::non_finite_centre_average<dir, aaf::offset_space::light_plane>(
+                                              src, g, gc, p, ln, x, y, pos, extent, radius, a, inv_two_beta2, cos_thr, centre)
+                                        : ad::non_finite_centre_average<dir, aaf::offset_space::image>(
+                                              src, g, gc, p, ln, x, y, pos, extent, radius, a, T(0), cos_thr, centre);
+                continue;
+            }
+            T sum = centre, wsum = T(1), wk = T(1), mk = std::exp(-a);
+            const T q = mk * mk;
+            for (std::size_t k = 1; k <= radius; ++k) {
+                wk *= mk;
+                mk *= q;
+                for (int side = -1; side <= 1; side += 2) {
+                    if (side < 0 ? k > pos : pos + k >= extent) continue;
+                    const std::size_t j = side < 0 ? pos - k : pos + k;
+                    const std::size_t nx = Horizontal ? j : x, ny = Horizontal ? y : j;
+                    const T v = src(nx, ny);
+                    if (!std::isfinite(v) || !gc.accepts(g, nx, ny, cos_thr)) continue;
+                    T weight = wk;
+                    if (light_plane) {
+                        weight = std::exp(-ad::light_plane_distance2(g, nx, ny, p, ln) * inv_two_beta2);
+                        if (!std::isfinite(weight)) continue;
+                    }
+                    sum += weight * v;
+                    wsum += weight;
+                }
+            }
+            dst(x, y) = wsum > T(0) ? sum / wsum : centre;
+        }
+}
+
+/// A random frame in row-padded buffers (`pad` extra elements per row): smooth-ish β up to `max_beta_px`
+/// (with a zero region), random IDs and normals, and, when `bad`, NaN/±Inf/−0/denormal visibility, NaN β,
+/// zero pixel sizes, NaN normals and NaN/Inf positions.
+template <class T>
+struct padded_frame {
+    std::size_t w, h, pitch;
+    std::vector<T> vis, beta, d;
+    std::vector<glm::vec<3, T>> n, p;
+    std::vector<std::uint32_t> id;
+    template <class U>
+    aaf::const_image_view<U> view(const std::vector<U>& v) const { return {v.data(), w, h, 0, pitch * sizeof(U)}; }
+};
+
+template <class T>
+padded_frame<T> random_padded_frame(std::uint64_t seed, std::size_t w, std::size_t h, std::size_t pad, double max_beta_px,
+                                    bool bad) {
+    aaf_ref::rng r(seed);
+    padded_frame<T> f{w, h, w + pad, {}, {}, {}, {}, {}, {}};
+    const std::size_t n = f.pitch * h;
+    f.vis.resize(n), f.beta.resize(n), f.d.resize(n), f.n.resize(n), f.p.resize(n), f.id.resize(n);
+    constexpr T nan = std::numeric_limits<T>::quiet_NaN(), inf = std::numeric_limits<T>::infinity();
+    const double px = static_cast<double>(h0);
+    for (std::size_t i = 0; i < n; ++i) {
+        const double x = static_cast<double>(i % f.pitch), y = static_cast<double>(i / f.pitch);
+        f.vis[i] = T(r.uniform());
+        f.d[i] = T(px);
+        f.beta[i] = T(px * std::max(0.0, max_beta_px * (0.6 + 0.5 * std::sin(0.2 * x + 0.1 * y)) * r.uniform(0.8, 1.0)));
+        const double a = 0.6 * r.uniform();
+        f.n[i] = glm::normalize(glm::vec<3, T>(T(std::sin(a)), T(std::cos(a)), T(0.2 * r.uniform())));
+        f.p[i] = {T(px * x), T(0.03 * r.uniform()), T(px * y)};
+        f.id[i] = r.below(8) == 0 ? 1u : 0u;
+        if (!bad) continue;
+        const double z = r.uniform();
+        if (z < 0.02) f.vis[i] = nan;
+        else if (z < 0.03) f.vis[i] = inf;
+        else if (z < 0.035) f.vis[i] = -inf;
+        else if (z < 0.04) f.beta[i] = nan;
+        else if (z < 0.045) f.d[i] = 0;
+        else if (z < 0.05) f.n[i].x = nan;
+        else if (z < 0.055) f.p[i].y = nan;
+        else if (z < 0.06) f.p[i].z = inf;
+        else if (z < 0.065) f.vis[i] = T(-0.0);
+        else if (z < 0.07) f.vis[i] = std::numeric_limits<T>::denorm_min();
+    }
+    return f;
+}
+
+template <class T>
+bool same_bits(const aaf::image<T>& a, const aaf::image<T>& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
+}
+
+/// Both passes of filter_visibility (its scratch holds the horizontal pass) against per_pixel_pass.
+template <class T, class G>
+void check_against_per_pixel(const padded_frame<T>& f, const G& g, const aaf::filter_settings<T>& s, const glm::vec<3, T>& ln) {
+    const auto vis = f.view(f.vis), beta = f.view(f.beta), d = f.view(f.d);
+    aaf::image<T> out(f.w, f.h), scratch(f.w, f.h), h_expected(f.w, f.h), v_expected(f.w, f.h);
+    aaf::thread_pool pool(2);
+    aaf::filter_visibility<T>(vis, beta, d, out.view(), scratch.view(), g, s, ln, pool);
+    const glm::vec<3, T> unit = ln / glm::length(ln);  // as filter_visibility normalises it
+    per_pixel_pass<true, T>(vis, h_expected.view(), beta, d, g, unit, s);
+    per_pixel_pass<false, T>(h_expected.cview(), v_expected.view(), beta, d, g, unit, s);
+    CHECK(same_bits(scratch, h_expected));
+    CHECK(same_bits(out, v_expected));
+}
+
+template <class T>
+void check_fast_path_bitwise(std::uint64_t seed) {
+    aaf_ref::rng r(seed);
+    const std::size_t w = 1 + r.below(140), h = 1 + r.below(110), pad = r.below(3);
+    const bool bad = r.uniform() < 0.7;
+    const padded_frame<T> f = random_padded_frame<T>(seed * 7 + 1, w, h, pad, r.uniform() < 0.2 ? 40.0 : 8.0, bad);
+    aaf::filter_settings<T> s;
+    s.max_radius = r.below(5) == 0 ? 50u : 24u;
+    s.normal_threshold_degrees = T(10 + 30 * r.uniform());
+    const glm::vec<3, T> ln{T(0.1), T(1), T(0.2 * r.uniform())};
+    const auto N = f.view(f.n), P = f.view(f.p);
+    const auto I = f.view(f.id);
+    INFO("seed " << seed << ", " << w << "x" << h << " pad " << pad << (bad ? ", non-finite inputs" : ""));
+    for (const auto space : {aaf::offset_space::image, aaf::offset_space::light_plane}) {
+        s.space = space;
+        check_against_per_pixel(f, aaf::guides<aaf::no_guide, aaf::no_guide, decltype(P)>{{}, {}, P}, s, ln);
+        check_against_per_pixel(f, aaf::guides{N, I, P}, s, ln);
+        check_against_per_pixel(f, aaf::guides{N, aaf::no_guide{}, P}, s, ln);
+        check_against_per_pixel(f, aaf::guides{aaf::no_guide{}, I, P}, s, ln);
+    }
+}
+}  // namespace
+
+TEMPLATE_TEST_CASE("filter: the lane-parallel passes equal a per-pixel evaluation bit for bit (random frames, guides, "
+                   "non-finite inputs, borders, padded rows)",
+                   "[filter]", float, double) {
+    for (std::uint64_t seed = 1; seed <= 24; ++seed) check_fast_path_bitwise<TestType>(seed);
+}

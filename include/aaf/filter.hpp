@@ -4,11 +4,14 @@
 // and the slope-spreading pass that gives unoccluded pixels their occluded neighbours' slopes (§1.12).
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <numbers>
 #include <type_traits>
+#include <vector>
 
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
@@ -57,13 +60,20 @@ void for_each_accepted_tap(const_image_view<T> src, const G& g, const guide_cent
     }
 }
 
-/// Squared distance between the centre `p` and neighbour (nx, ny), projected on the light plane (§1.11).
+/// Squared distance between the centre `p` and a neighbour at `q`, projected on the light plane (§1.11).
+template <class T>
+[[nodiscard]] T light_plane_distance2(const glm::vec<3, T>& q, const glm::vec<3, T>& p,
+                                      const glm::vec<3, T>& light_normal) noexcept {
+    const glm::vec<3, T> dp = q - p;
+    const T along = glm::dot(dp, light_normal);
+    return std::max(glm::dot(dp, dp) - along * along, T(0));  // NaN stays NaN (std::max keeps its first argument)
+}
+
+/// The same for neighbour (nx, ny) of the guides' positions.
 template <class T, class G>
 [[nodiscard]] T light_plane_distance2(const G& g, std::size_t nx, std::size_t ny, const glm::vec<3, T>& p,
                                       const glm::vec<3, T>& light_normal) noexcept {
-    const glm::vec<3, T> dp = g.positions(nx, ny) - p;
-    const T along = glm::dot(dp, light_normal);
-    return std::max(glm::dot(dp, dp) - along * along, T(0));  // NaN stays NaN (std::max keeps its first argument)
+    return light_plane_distance2<T>(g.positions(nx, ny), p, light_normal);
 }
 
 /// The result of a pass for a non-finite centre: the Gaussian average of its accepted finite neighbours.
@@ -99,75 +109,427 @@ template <pass_direction Dir, offset_space Space, class T, class G>
     return sum / wsum;
 }
 
-/// One 1-D pass. For each pixel: the Gaussian of the *centre's* width over the neighbours along `dir`,
-/// skipping neighbours that are non-finite or rejected by a guide, normalised by the weight sum.
-/// A centre with β ≤ 0 (or NaN) is copied; a centre whose neighbours are all rejected keeps its value;
-/// a non-finite centre gets its accepted finite neighbours' average (non_finite_centre_average).
-template <pass_direction Dir, offset_space Space, class T, class G>
-void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T> beta, const_image_view<T> pixel_size,
-                 const G& g, const glm::vec<3, T>& light_normal, const filter_settings<T>& s, std::size_t y_begin,
-                 std::size_t y_end) noexcept {
-    const std::size_t w = src.width(), h = src.height();
-    const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
-    for (std::size_t y = y_begin; y < y_end; ++y) {
+// ---------------------------------------------------------------------------------------------------
+// The fast pass. Pixels are processed as lanes: a row of centres, in blocks of `filter_lane_block`, with
+// the tap distance k in the outer loop and the lanes in the inner loop, so that a lane's neighbours at
+// ±k are contiguous in memory for both directions (x±k in the row; the same x in rows y±k). The inner
+// loop is branch-free (a tap is a mask: in range, finite, same ID, normal within the threshold) and GCC
+// and Clang vectorise it. Each lane performs exactly the arithmetic of the per-pixel definition
+// (for_each_accepted_tap: k ascending, the −k side before the +k side, the same weight recurrence), so
+// the result is the same number as a pixel-by-pixel loop, independent of blocks and threads.
+
+#if defined(__GNUC__) || defined(__clang__) || defined(_MSC_VER)
+#define AAF_DETAIL_RESTRICT __restrict
+#else
+#define AAF_DETAIL_RESTRICT
+#endif
+
+/// Rows of centres per task of a pass (the executor's unit of work): amortises the vertical pass's copy
+/// of the rows within reach and leaves enough tasks to balance threads.
+inline constexpr std::size_t filter_rows_per_task = 64;
+/// Lanes whose accumulators stay together in L1 while k runs over the kernel.
+inline constexpr std::size_t filter_lane_block = 64;
+/// Distances per sweep over the lanes in image space (each lane's state is loaded and stored once per sweep).
+inline constexpr std::size_t filter_distances_per_sweep = 2;  // 4 measured slower (GCC 12, AVX-512)
+
+/// Copies row `y` of `view` to `out`; a plain array loop (vectorised) when the row is packed.
+template <class U>
+void copy_row(const_image_view<U> view, std::size_t y, U* AAF_DETAIL_RESTRICT out) noexcept {
+    const std::size_t w = view.width();
+    if (view.packed_rows()) {
+        const U* AAF_DETAIL_RESTRICT in = &view(0, y);
+        for (std::size_t x = 0; x < w; ++x) out[x] = in[x];
+    } else {
+        for (std::size_t x = 0; x < w; ++x) out[x] = view(x, y);
+    }
+}
+
+/// Copies row `y` of a view of vectors to three component arrays.
+template <class T>
+void copy_row(const_image_view<glm::vec<3, T>> view, std::size_t y, T* AAF_DETAIL_RESTRICT ox, T* AAF_DETAIL_RESTRICT oy,
+              T* AAF_DETAIL_RESTRICT oz) noexcept {
+    const std::size_t w = view.width();
+    if (view.packed_rows()) {
+        const glm::vec<3, T>* AAF_DETAIL_RESTRICT in = &view(0, y);
+        for (std::size_t x = 0; x < w; ++x) ox[x] = in[x].x, oy[x] = in[x].y, oz[x] = in[x].z;
+    } else {
         for (std::size_t x = 0; x < w; ++x) {
-            const T centre = src(x, y);
-            const T b = beta(x, y);
-            const T d = pixel_size(x, y);
-            const T beta_px = b / d;
-            const std::size_t radius = (b > T(0) && d > T(0)) ? kernel_radius(beta_px, s) : 0;
-            if (radius == 0) {
-                dst(x, y) = centre;
-                continue;
-            }
-            const guide_center<T, G> gc(g, x, y);
-            glm::vec<3, T> p{0};
-            T inv_two_beta2 = T(0);
-            if constexpr (Space == offset_space::light_plane) {
-                p = g.positions(x, y);
-                inv_two_beta2 = T(1) / (T(2) * b * b);
-                if (!std::isfinite(p.x + p.y + p.z)) {  // no position: cannot measure distances
-                    dst(x, y) = centre;
-                    continue;
-                }
-            }
-            const bool centre_ok = std::isfinite(centre);
-            const std::size_t pos = Dir == pass_direction::horizontal ? x : y;
-            const std::size_t extent = Dir == pass_direction::horizontal ? w : h;
-            if (!centre_ok) {
-                dst(x, y) = non_finite_centre_average<Dir, Space>(src, g, gc, p, light_normal, x, y, pos, extent,
-                                                                 radius, T(1) / (T(2) * beta_px * beta_px),
-                                                                 inv_two_beta2, cos_threshold, centre);
-                continue;
-            }
-            T sum = centre;
-            T wsum = T(1);
-            // Image space: w_k = exp(-k² a) by the recurrence w_k = w_{k-1}·m_k, m_k = exp(-(2k-1)a):
-            // two exp per pixel instead of one per tap.
-            const T a = T(1) / (T(2) * beta_px * beta_px);
-            T wk = T(1), mk = std::exp(-a);
-            const T q = mk * mk;
-            for_each_accepted_tap<Dir>(
-                src, g, gc, x, y, pos, extent, radius, cos_threshold,
-                [&](std::size_t) {
-                    if constexpr (Space == offset_space::image) {
-                        wk *= mk;
-                        mk *= q;
-                    }
-                },
-                [&](std::size_t, std::size_t nx, std::size_t ny, T v) {
-                    T weight = wk;
-                    if constexpr (Space == offset_space::light_plane) {
-                        weight = std::exp(-light_plane_distance2(g, nx, ny, p, light_normal) * inv_two_beta2);
-                        if (!std::isfinite(weight)) return;  // NaN position
-                    }
-                    sum += weight * v;
-                    wsum += weight;
-                });
-            dst(x, y) = wsum > T(0) ? sum / wsum : centre;
+            const glm::vec<3, T> n = view(x, y);
+            ox[x] = n.x, oy[x] = n.y, oz[x] = n.z;
         }
     }
 }
+
+/// Writes `in` to row `y` of `view`; a plain array loop (vectorised) when the row is packed.
+template <class U>
+void store_row(const U* AAF_DETAIL_RESTRICT in, image_view<U> view, std::size_t y) noexcept {
+    const std::size_t w = view.width();
+    if (view.packed_rows()) {
+        U* AAF_DETAIL_RESTRICT out = &view(0, y);
+        for (std::size_t x = 0; x < w; ++x) out[x] = in[x];
+    } else {
+        for (std::size_t x = 0; x < w; ++x) view(x, y) = in[x];
+    }
+}
+
+/// The largest of `n` kernel radii held as T (whole numbers in [0, 1024]); an integer reduction, which
+/// vectorises where a floating-point max does not (it would have to keep NaN semantics).
+template <class T>
+[[nodiscard]] std::size_t largest_radius(const T* AAF_DETAIL_RESTRICT radius, std::size_t n) noexcept {
+    std::int32_t m = 0;
+    for (std::size_t i = 0; i < n; ++i) m = std::max(m, static_cast<std::int32_t>(radius[i]));
+    return static_cast<std::size_t>(m);
+}
+
+/// Structure-of-arrays copies of rows of the pass's input and of the guides it uses, `stride` elements per
+/// row, so that the lanes read contiguous, aligned-type arrays whatever the caller's pixel strides.
+/// Elements that stand for pixels outside the image hold a NaN value (and NaN normals), which every tap
+/// rejects; with normals, a non-finite value also gets a NaN normal, so the normal test rejects it alone.
+template <class T, class G, offset_space Space>
+struct tap_rows {
+    static constexpr bool normals = G::has_normals;
+    static constexpr bool ids = G::has_ids;
+    static constexpr bool positions = Space == offset_space::light_plane;
+    std::size_t stride = 0;
+    // Not value-initialised: every element is written by `load` or `fill` before the lanes read it.
+    std::unique_ptr<T[]> v, nx, ny, nz, px, py, pz;
+    std::unique_ptr<std::uint32_t[]> id;
+
+    void resize(std::size_t rows, std::size_t row_stride) {
+        stride = row_stride;
+        const std::size_t n = rows * row_stride;
+        v.reset(new T[n]);
+        if constexpr (normals) nx.reset(new T[n]), ny.reset(new T[n]), nz.reset(new T[n]);
+        if constexpr (ids) id.reset(new std::uint32_t[n]);
+        if constexpr (positions) px.reset(new T[n]), py.reset(new T[n]), pz.reset(new T[n]);
+    }
+
+    /// Makes elements [begin, end) of buffer row `row` stand for pixels outside the image (rejected taps).
+    void fill(std::size_t row, std::size_t begin, std::size_t end) noexcept {
+        constexpr T nan = std::numeric_limits<T>::quiet_NaN();
+        const std::size_t o = row * stride;
+        std::fill(&v[o + begin], &v[o + end], nan);
+        if constexpr (normals) {
+            std::fill(&nx[o + begin], &nx[o + end], nan);
+            std::fill(&ny[o + begin], &ny[o + end], nan);
+            std::fill(&nz[o + begin], &nz[o + end], nan);
+        }
+        if constexpr (ids) std::fill(&id[o + begin], &id[o + end], 0u);
+        if constexpr (positions) {
+            std::fill(&px[o + begin], &px[o + end], nan);
+            std::fill(&py[o + begin], &py[o + end], nan);
+            std::fill(&pz[o + begin], &pz[o + end], nan);
+        }
+    }
+
+    /// Copies pixels [0, w) of image row `y` to elements [offset, offset + w) of buffer row `row`.
+    void load(std::size_t row, std::size_t offset, const_image_view<T> src, const G& g, std::size_t y) noexcept {
+        const std::size_t w = src.width(), o = row * stride + offset;
+        copy_row(src, y, &v[o]);
+        if constexpr (normals) {
+            copy_row(g.normals, y, &nx[o], &ny[o], &nz[o]);
+            // A non-finite value gets a NaN normal, so that the normal test alone rejects it.
+            constexpr T max_finite = std::numeric_limits<T>::max(), nan = std::numeric_limits<T>::quiet_NaN();
+            T* AAF_DETAIL_RESTRICT n = &nx[o];
+            const T* AAF_DETAIL_RESTRICT value = &v[o];
+            for (std::size_t x = 0; x < w; ++x) n[x] = std::abs(value[x]) <= max_finite ? n[x] : nan;
+        }
+        if constexpr (ids) copy_row(g.ids, y, &id[o]);
+        if constexpr (positions) copy_row(g.positions, y, &px[o], &py[o], &pz[o]);
+    }
+
+    /// Pointers to the element `i` of every array (the lanes' neighbours on one side).
+    struct cursor {
+        const T* AAF_DETAIL_RESTRICT v;
+        const T* AAF_DETAIL_RESTRICT nx;
+        const T* AAF_DETAIL_RESTRICT ny;
+        const T* AAF_DETAIL_RESTRICT nz;
+        const std::uint32_t* AAF_DETAIL_RESTRICT id;
+        const T* AAF_DETAIL_RESTRICT px;
+        const T* AAF_DETAIL_RESTRICT py;
+        const T* AAF_DETAIL_RESTRICT pz;
+    };
+    [[nodiscard]] cursor at(std::size_t i) const noexcept {
+        cursor c{&v[i], nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr};
+        if constexpr (normals) c.nx = &nx[i], c.ny = &ny[i], c.nz = &nz[i];
+        if constexpr (ids) c.id = &id[i];
+        if constexpr (positions) c.px = &px[i], c.py = &py[i], c.pz = &pz[i];
+        return c;
+    }
+};
+
+/// Per-lane state of one row of centres (structure of arrays, so that the set-up, the taps and the
+/// normalisation vectorise): the kernel radius as T (so that masks have the lanes' width; 0 = no taps),
+/// the image-space weight recurrence w_k, m_k, q, the light-plane 1/(2β²) and the two sums.
+template <class T>
+struct lane_state {
+    std::vector<T> beta, pixel_size, full_radius, radius, a, wk, mk, q, sum, wsum, inv_two_beta2, out;
+
+    explicit lane_state(std::size_t w)
+        : beta(w), pixel_size(w), full_radius(w), radius(w), a(w), wk(w), mk(w), q(w), sum(w), wsum(w),
+          inv_two_beta2(w), out(w) {}
+};
+
+/// Taps at distances k, k+1, …, k+K−1 on both sides of lanes [0, n) in image space: for each distance,
+/// advances the weight recurrence, then adds the −k neighbour and the +k neighbour when accepted. K > 1
+/// loads and stores each lane's state once per K distances (the lanes' order of operations is unchanged).
+/// Branch-free so that it vectorises; a rejected tap leaves the sums untouched (a blend, not an add of 0,
+/// so a −0 sum stays −0 as in the scalar loop).
+template <std::size_t K, class T, bool Normals, bool Ids, class Cursor>
+void image_taps(std::size_t n, std::size_t k, T cos_threshold, const T* AAF_DETAIL_RESTRICT radius,
+                T* AAF_DETAIL_RESTRICT wk, T* AAF_DETAIL_RESTRICT mk, const T* AAF_DETAIL_RESTRICT q,
+                T* AAF_DETAIL_RESTRICT sum, T* AAF_DETAIL_RESTRICT wsum, const Cursor& centre,
+                const std::array<Cursor, K>& left, const std::array<Cursor, K>& right) noexcept {
+    constexpr T max_finite = std::numeric_limits<T>::max();
+    const T* AAF_DETAIL_RESTRICT cnx = centre.nx;
+    const T* AAF_DETAIL_RESTRICT cny = centre.ny;
+    const T* AAF_DETAIL_RESTRICT cnz = centre.nz;
+    const std::uint32_t* AAF_DETAIL_RESTRICT cid = centre.id;
+    for (std::size_t i = 0; i < n; ++i) {
+        T w = wk[i], m = mk[i], s = sum[i], ws = wsum[i];
+        const T qi = q[i], ri = radius[i];
+        // Accepts the neighbour at element i of `c`: finite value, same ID, normal within the threshold.
+        const auto accepts = [&](const Cursor& c, T v) {
+            // False for ±Inf and NaN; with normals, tap_rows gave such values a NaN normal instead.
+            bool ok = Normals || std::abs(v) <= max_finite;
+            if constexpr (Ids) ok = ok & (c.id[i] == cid[i]);
+            // Same expression as glm::dot(centre, neighbour); `>=` is false for NaN normals, which reject.
+            if constexpr (Normals) ok = ok & (cnx[i] * c.nx[i] + cny[i] * c.ny[i] + cnz[i] * c.nz[i] >= cos_threshold);
+            return ok;
+        };
+        for (std::size_t j = 0; j < K; ++j) {
+            w = w * m;
+            m = m * qi;
+            const bool in = static_cast<T>(k + j) <= ri;
+            const T l = left[j].v[i], r = right[j].v[i];
+            const bool lok = in & accepts(left[j], l);
+            const bool rok = in & accepts(right[j], r);
+            s = lok ? s + w * l : s;
+            ws = lok ? ws + w : ws;
+            s = rok ? s + w * r : s;
+            ws = rok ? ws + w : ws;
+        }
+        wk[i] = w;
+        mk[i] = m;
+        sum[i] = s;
+        wsum[i] = ws;
+    }
+}
+
+/// Light-plane taps at distance k: the guide masks vectorise; the distances, std::exp and the sums run
+/// per lane in the scalar order (−k side, then +k side).
+template <class T, bool Normals, bool Ids>
+void light_plane_taps(std::size_t n, T k, T cos_threshold, const glm::vec<3, T>& ln, const T* AAF_DETAIL_RESTRICT radius,
+                      const T* AAF_DETAIL_RESTRICT inv_two_beta2, T* AAF_DETAIL_RESTRICT sum, T* AAF_DETAIL_RESTRICT wsum,
+                      const T* AAF_DETAIL_RESTRICT cnx, const T* AAF_DETAIL_RESTRICT cny, const T* AAF_DETAIL_RESTRICT cnz,
+                      const std::uint32_t* AAF_DETAIL_RESTRICT cid, const T* AAF_DETAIL_RESTRICT cpx,
+                      const T* AAF_DETAIL_RESTRICT cpy, const T* AAF_DETAIL_RESTRICT cpz,
+                      typename tap_rows<T, guides<>, offset_space::light_plane>::cursor L,
+                      typename tap_rows<T, guides<>, offset_space::light_plane>::cursor R,
+                      unsigned char* AAF_DETAIL_RESTRICT lok,
+                      unsigned char* AAF_DETAIL_RESTRICT rok) noexcept {
+    constexpr T max_finite = std::numeric_limits<T>::max();
+    for (std::size_t i = 0; i < n; ++i) {
+        const bool in = k <= radius[i];
+        bool l = in & (std::abs(L.v[i]) <= max_finite);
+        bool r = in & (std::abs(R.v[i]) <= max_finite);
+        if constexpr (Ids) {
+            l = l & (L.id[i] == cid[i]);
+            r = r & (R.id[i] == cid[i]);
+        }
+        if constexpr (Normals) {
+            l = l & (cnx[i] * L.nx[i] + cny[i] * L.ny[i] + cnz[i] * L.nz[i] >= cos_threshold);
+            r = r & (cnx[i] * R.nx[i] + cny[i] * R.ny[i] + cnz[i] * R.nz[i] >= cos_threshold);
+        }
+        lok[i] = l;
+        rok[i] = r;
+    }
+    // The distance through the same glm expression as the per-pixel definition, so that a compiler that
+    // contracts a·b + c into fma contracts both alike (bitwise equal results).
+    const auto add = [&](std::size_t i, const auto& c) {
+        const glm::vec<3, T> p{cpx[i], cpy[i], cpz[i]}, q{c.px[i], c.py[i], c.pz[i]};
+        const T weight = std::exp(-light_plane_distance2<T>(q, p, ln) * inv_two_beta2[i]);
+        if (!std::isfinite(weight)) return;  // NaN position
+        sum[i] += weight * c.v[i];
+        wsum[i] += weight;
+    };
+    for (std::size_t i = 0; i < n; ++i) {
+        if (lok[i]) add(i, L);
+        if (rok[i]) add(i, R);
+    }
+}
+
+/// Kernel radii (as T, 0 = copy) of row `y`'s centres into `st.full_radius`, with their β and d in
+/// `st.beta`, `st.pixel_size`. Vectorised form of kernel_radius, the same numbers.
+template <class T>
+void row_radii(lane_state<T>& st, const_image_view<T> beta, const_image_view<T> pixel_size, const filter_settings<T>& s,
+               std::size_t y) noexcept {
+    const std::size_t w = beta.width();
+    T* AAF_DETAIL_RESTRICT bw = st.beta.data();
+    T* AAF_DETAIL_RESTRICT dw = st.pixel_size.data();
+    T* AAF_DETAIL_RESTRICT radius = st.full_radius.data();
+    copy_row(beta, y, bw);
+    copy_row(pixel_size, y, dw);
+    const T truncation = s.truncation, max_radius = static_cast<T>(s.max_radius);
+    for (std::size_t x = 0; x < w; ++x) {
+        const T b = bw[x], d = dw[x], beta_px = b / d;
+        // min(ceil(t), max_radius) = ceil(min(t, max_radius)) as max_radius is an integer, and that ceil is
+        // computed by truncation (std::ceil does not vectorise unless -fno-trapping-math); NaN goes to the cap.
+        const T t = truncation * beta_px, capped = t < max_radius ? t : max_radius;
+        const bool has = (b > T(0)) & (d > T(0)) & (beta_px > T(0));
+        const T whole = static_cast<T>(static_cast<std::int32_t>(has ? capped : T(0)));  // in [0, 1024]
+        radius[x] = has ? (whole < capped ? whole + T(1) : whole) : T(0);
+    }
+}
+
+/// The lanes' initial state for a row of centres `cv` (and their positions, light plane): a lane with taps
+/// has a finite centre (and position) and its kernel radius; the others get radius 0.
+template <bool LightPlane, class T>
+void setup_lanes(std::size_t w, const T* AAF_DETAIL_RESTRICT cv, const T* AAF_DETAIL_RESTRICT cpx,
+                 const T* AAF_DETAIL_RESTRICT cpy, const T* AAF_DETAIL_RESTRICT cpz, const T* AAF_DETAIL_RESTRICT full_radius,
+                 const T* AAF_DETAIL_RESTRICT bw, const T* AAF_DETAIL_RESTRICT dw, T* AAF_DETAIL_RESTRICT radius,
+                 T* AAF_DETAIL_RESTRICT a, T* AAF_DETAIL_RESTRICT wk, T* AAF_DETAIL_RESTRICT sum,
+                 T* AAF_DETAIL_RESTRICT wsum, T* AAF_DETAIL_RESTRICT inv_two_beta2) noexcept {
+    constexpr T max_finite = std::numeric_limits<T>::max();
+    for (std::size_t x = 0; x < w; ++x) {
+        const T centre = cv[x];
+        bool taps = std::abs(centre) <= max_finite;
+        if constexpr (LightPlane) {
+            taps = taps & (std::abs(cpx[x] + cpy[x] + cpz[x]) <= max_finite);
+            inv_two_beta2[x] = T(1) / (T(2) * bw[x] * bw[x]);
+        } else {
+            const T beta_px = bw[x] / dw[x];
+            a[x] = T(1) / (T(2) * beta_px * beta_px);
+        }
+        radius[x] = taps ? full_radius[x] : T(0);
+        sum[x] = centre;
+        wsum[x] = T(1);
+        wk[x] = T(1);
+    }
+}
+
+/// Σw·v / Σw for lanes with taps (or the centre when the weights sum to 0), the centre for the others.
+template <class T>
+void normalise_lanes(std::size_t w, const T* AAF_DETAIL_RESTRICT cv, const T* AAF_DETAIL_RESTRICT radius,
+                     const T* AAF_DETAIL_RESTRICT sum, const T* AAF_DETAIL_RESTRICT wsum, T* AAF_DETAIL_RESTRICT out) noexcept {
+    for (std::size_t x = 0; x < w; ++x) out[x] = ((radius[x] > T(0)) & (wsum[x] > T(0))) ? sum[x] / wsum[x] : cv[x];
+}
+
+/// One 1-D pass over centre rows [y_begin, y_end). For each pixel: the Gaussian of the *centre's* width
+/// over the neighbours along `Dir`, skipping neighbours that are non-finite or rejected by a guide,
+/// normalised by the weight sum. A centre with β ≤ 0 (or NaN) is copied; a centre whose neighbours are all
+/// rejected keeps its value; a non-finite centre gets its accepted finite neighbours' average
+/// (non_finite_centre_average, scalar: it is rare).
+/// Allocates per call (one call per task of rows): the lanes' state for one row and structure-of-arrays
+/// copies of the rows within reach (horizontal: the row with max_radius margins; vertical: the task's
+/// rows plus its largest radius above and below), about 20–40 bytes per copied pixel.
+/// `row_reach[y]` is each row's largest kernel radius: the horizontal pass writes it, the vertical reads it.
+template <pass_direction Dir, offset_space Space, class T, class G>
+void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T> beta, const_image_view<T> pixel_size,
+                 const G& g, const glm::vec<3, T>& light_normal, const filter_settings<T>& s, std::size_t y_begin,
+                 std::size_t y_end, std::size_t* row_reach) {
+    constexpr bool horizontal = Dir == pass_direction::horizontal;
+    constexpr bool light_plane = Space == offset_space::light_plane;
+    const std::size_t w = src.width(), h = src.height();
+    const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
+
+    lane_state<T> st(w);
+    tap_rows<T, G, Space> rows;
+    const std::size_t margin = s.max_radius + filter_distances_per_sweep;  // horizontal: NaN elements left and right of the row
+    std::size_t first_row = 0;                // vertical: image row held in buffer row 0
+    std::size_t nan_row = 0;                  // vertical: the buffer row of NaN values standing for rows outside the image
+    if constexpr (horizontal) {
+        rows.resize(1, w + 2 * margin);
+        rows.fill(0, 0, margin);  // `load` writes only [margin, margin + w)
+        rows.fill(0, margin + w, w + 2 * margin);
+    } else {
+        std::size_t reach = 0;  // the largest radius among the task's centres (from the horizontal pass)
+        for (std::size_t y = y_begin; y < y_end; ++y) reach = std::max(reach, row_reach[y]);
+        const std::size_t r = reach + filter_distances_per_sweep;  // margin for the last group
+        first_row = y_begin > r ? y_begin - r : 0;
+        const std::size_t last_row = std::min(h, y_end + r);
+        nan_row = last_row - first_row;
+        rows.resize(nan_row + 1, w);
+        rows.fill(nan_row, 0, w);
+        for (std::size_t y = first_row; y < last_row; ++y) rows.load(y - first_row, 0, src, g, y);
+    }
+    std::vector<unsigned char> lok, rok;  // light plane: the lanes' accepted taps
+    if constexpr (light_plane) lok.resize(filter_lane_block), rok.resize(filter_lane_block);
+
+    for (std::size_t y = y_begin; y < y_end; ++y) {
+        if constexpr (horizontal) rows.load(0, margin, src, g, y);  // the margins keep their NaN values
+        const std::size_t centre_at = horizontal ? margin : (y - first_row) * w;  // the centres in `rows`
+        const auto C = rows.at(centre_at);
+        // Set up the lanes. A lane with taps has a finite centre (and position); the others get radius 0.
+        row_radii(st, beta, pixel_size, s, y);
+        if constexpr (horizontal) row_reach[y] = largest_radius(st.full_radius.data(), w);
+        setup_lanes<light_plane>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), st.beta.data(), st.pixel_size.data(),
+                                 st.radius.data(), st.a.data(), st.wk.data(), st.sum.data(), st.wsum.data(),
+                                 st.inv_two_beta2.data());
+        if constexpr (!light_plane)
+            for (std::size_t x = 0; x < w; ++x)
+                if (st.radius[x] > T(0)) {
+                    // w_k = exp(-k² a) by the recurrence w_k = w_{k-1}·m_k, m_k = exp(-(2k-1)a).
+                    st.mk[x] = std::exp(-st.a[x]);
+                    st.q[x] = st.mk[x] * st.mk[x];
+                }
+        for (std::size_t x0 = 0; x0 < w; x0 += filter_lane_block) {
+            const std::size_t n = std::min(filter_lane_block, w - x0);
+            const std::size_t steps = largest_radius(&st.radius[x0], n);
+            const auto Cb = rows.at(centre_at + x0);
+            using cursor = typename tap_rows<T, G, Space>::cursor;
+            const auto side = [&](std::size_t k, bool plus) -> cursor {
+                if constexpr (horizontal) return rows.at(plus ? centre_at + x0 + k : centre_at + x0 - k);
+                if (plus) return rows.at((y + k < h ? y + k - first_row : nan_row) * w + x0);
+                return rows.at((k <= y ? y - k - first_row : nan_row) * w + x0);
+            };
+            if constexpr (light_plane) {
+                for (std::size_t k = 1; k <= steps; ++k) {
+                    const cursor L = side(k, false), R = side(k, true);
+                    using Cur = typename tap_rows<T, guides<>, offset_space::light_plane>::cursor;
+                    light_plane_taps<T, G::has_normals, G::has_ids>(
+                        n, static_cast<T>(k), cos_threshold, light_normal, &st.radius[x0], &st.inv_two_beta2[x0],
+                        &st.sum[x0], &st.wsum[x0], Cb.nx, Cb.ny, Cb.nz, Cb.id, Cb.px, Cb.py, Cb.pz,
+                        Cur{L.v, L.nx, L.ny, L.nz, L.id, L.px, L.py, L.pz},
+                        Cur{R.v, R.nx, R.ny, R.nz, R.id, R.px, R.py, R.pz}, lok.data(), rok.data());
+                }
+            } else {
+                // Distances in groups; a group's last distances may pass `steps`, which every lane's radius
+                // masks (the buffers have that many elements or rows of margin).
+                constexpr std::size_t K = filter_distances_per_sweep;
+                for (std::size_t k = 1; k <= steps; k += K) {
+                    std::array<cursor, K> left, right;
+                    for (std::size_t j = 0; j < K; ++j) left[j] = side(k + j, false), right[j] = side(k + j, true);
+                    image_taps<K, T, G::has_normals, G::has_ids>(n, k, cos_threshold, &st.radius[x0], &st.wk[x0],
+                                                                 &st.mk[x0], &st.q[x0], &st.sum[x0], &st.wsum[x0], Cb,
+                                                                 left, right);
+                }
+            }
+        }
+        normalise_lanes(w, C.v, st.radius.data(), st.sum.data(), st.wsum.data(), st.out.data());
+        store_row(st.out.data(), dst, y);
+        for (std::size_t x = 0; x < w; ++x) {
+            const T centre = C.v[x];
+            if (!(st.full_radius[x] > T(0)) || std::isfinite(centre)) continue;
+            // A non-finite centre with a kernel (rare): the scalar rule.
+            glm::vec<3, T> p{0};
+            T inv_two_beta2 = T(0);
+            if constexpr (light_plane) {
+                p = g.positions(x, y);
+                if (!std::isfinite(p.x + p.y + p.z)) continue;  // no position: copied
+                inv_two_beta2 = st.inv_two_beta2[x];
+            }
+            const std::size_t pos = horizontal ? x : y, extent = horizontal ? w : h;
+            const T beta_px = st.beta[x] / st.pixel_size[x];
+            dst(x, y) = non_finite_centre_average<Dir, Space>(
+                src, g, guide_center<T, G>(g, x, y), p, light_normal, x, y, pos, extent,
+                static_cast<std::size_t>(st.full_radius[x]), T(1) / (T(2) * beta_px * beta_px), inv_two_beta2,
+                cos_threshold, centre);
+        }
+    }
+}
+
+#undef AAF_DETAIL_RESTRICT
 
 }  // namespace detail
 
@@ -203,6 +565,10 @@ void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
     if (output.bytes() == visibility.bytes() || output.bytes() == scratch.bytes() ||
         scratch.bytes() == visibility.bytes())
         detail::throw_invalid(fn, "`output`, `scratch` and `visibility` must be distinct buffers");
+    // Tasks are blocks of rows; every pixel's result is independent of how they are split.
+    const std::size_t tasks = (h + detail::filter_rows_per_task - 1) / detail::filter_rows_per_task;
+    const auto row = [h](std::size_t task) { return std::min(task * detail::filter_rows_per_task, h); };
+    std::vector<std::size_t> row_reach(h);  // each row's largest kernel radius, from the horizontal pass
     if (s.space == offset_space::light_plane) {
         if constexpr (!G::has_positions) {
             detail::throw_invalid(fn, "`settings.space` is light_plane but `guides.positions` is absent");
@@ -210,20 +576,20 @@ void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
             const T len = glm::length(light_normal);
             if (!(len > T(0)) || !std::isfinite(len)) detail::throw_invalid(fn, "`light_normal` must be a finite non-zero vector");
             const glm::vec<3, T> n = light_normal / len;
-            exec.parallel_for(h, [&](std::size_t b, std::size_t e) {
-                detail::filter_pass<detail::pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, b, e);
+            exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
+                detail::filter_pass<detail::pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach.data());
             });
-            exec.parallel_for(h, [&](std::size_t b, std::size_t e) {
-                detail::filter_pass<detail::pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size, g, n, s, b, e);
+            exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
+                detail::filter_pass<detail::pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach.data());
             });
             return;
         }
     }
-    exec.parallel_for(h, [&](std::size_t b, std::size_t e) {
-        detail::filter_pass<detail::pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, g, light_normal, s, b, e);
+    exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
+        detail::filter_pass<detail::pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach.data());
     });
-    exec.parallel_for(h, [&](std::size_t b, std::size_t e) {
-        detail::filter_pass<detail::pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size, g, light_normal, s, b, e);
+    exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
+        detail::filter_pass<detail::pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach.data());
     });
 }
 
