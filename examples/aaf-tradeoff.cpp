@@ -7,6 +7,7 @@
 // drawn by gnuplot. The engine is examples/common/tradeoff.cpp; run with --help for the options.
 
 #include <algorithm>
+#include <stdexcept>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -54,6 +55,9 @@ const char* const help_text =
     "  --no-plot             skip gnuplot (the JSON, summary and script are still written)\n"
     "  --replot              render nothing: rewrite OUT/summary.md, OUT/tradeoff.gp and the plots from\n"
     "                        OUT/tradeoff.json (after a change to their layout)\n"
+    "  --overview FILE DIR... render nothing: write a markdown table comparing the scenes whose\n"
+    "                        DIR/tradeoff.json exist (equal-error ratios at the paper's mu = 2, the best\n"
+    "                        ratios of any aaf variant, the presets) to FILE; scripts/results uses it\n"
     "  --help                this text\n"
     "Large optional meshes (the sports car) are found through the AAF_SCENES_DIR environment variable.\n";
 
@@ -62,6 +66,8 @@ struct options {
     fs::path out = "aaf-tradeoff-output";
     bool plot = true;
     bool replot = false;
+    fs::path overview;                 // --overview: the table to write
+    std::vector<fs::path> overview_dirs;  // ... from these runs
 };
 
 std::vector<std::string> split_list(const std::string& v) {
@@ -109,25 +115,91 @@ options parse(int argc, char** argv) {
         } else if (a == "--quick") c.quick = true;
         else if (a == "--no-plot") o.plot = false;
         else if (a == "--replot") o.replot = true;
+        else if (a == "--overview") {
+            o.overview = value();
+            while (i + 1 < argc && std::string(argv[i + 1]).rfind("--", 0) != 0) o.overview_dirs.emplace_back(argv[++i]);
+            if (o.overview_dirs.empty()) throw usage_error("--overview needs FILE and at least one DIR with a tradeoff.json");
+        }
         else throw usage_error("unknown option '" + a + "' (see --help)");
     }
     if (c.cache.empty()) c.cache = o.out / "cache";
     return o;
 }
 
-nlohmann::json read_json(const fs::path& file) {
+nlohmann::json read_json(const fs::path& file, const char* flag) {
     std::ifstream in(file);
-    if (!in) throw usage_error("--replot: cannot open " + file.string());
+    if (!in) throw usage_error(std::string(flag) + ": cannot open " + file.string());
     try {
         return nlohmann::json::parse(in);
     } catch (const nlohmann::json::exception& e) {
-        throw usage_error("--replot: " + file.string() + " is not valid JSON (" + e.what() + ")");
+        throw usage_error(std::string(flag) + ": " + file.string() + " is not valid JSON (" + e.what() + ")");
     }
 }
 
+std::string format(const char* fmt, double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, fmt, v);
+    return buf;
+}
+
+/// "12.1x", or ">12.1x" / "<12.1x" when the baseline's sweep did not bracket the point.
+std::string ratio(const nlohmann::json& e, const char* field) {
+    std::string prefix;
+    if (e.value("extrapolated", false)) prefix = e.value("bound", "") == "lower" ? ">" : "<";
+    return prefix + format("%.1fx", e[field].get<double>());
+}
+
+/// One row per scene: what someone choosing settings wants to compare at a glance.
+void write_overview(const fs::path& file, const std::vector<fs::path>& dirs) {
+    std::string md =
+        "| scene | size | aaf_adaptive μ=2 rays/px | RMSE | MC rays/px for it | rays ratio | time ratio | filter share | "
+        "best rays ratio (method, knob) | best time ratio (method, knob) |\n"
+        "|---|---|---:|---:|---:|---:|---:|---:|---|---|\n";
+    for (const fs::path& dir : dirs) {
+        const nlohmann::json r = read_json(dir / "tradeoff.json", "--overview");
+        const nlohmann::json* at_mu2 = nullptr;
+        const nlohmann::json *best_rays = nullptr, *best_time = nullptr;
+        for (const nlohmann::json& e : r.at("equal_error")) {
+            if (e.at("method") == "aaf_adaptive" && e.at("knob_value").get<double>() == 2.0) at_mu2 = &e;  // the paper's μ
+            if (!best_rays || e.at("rays_ratio").get<double>() > (*best_rays)["rays_ratio"].get<double>()) best_rays = &e;
+            if (!best_time || e.at("time_ratio").get<double>() > (*best_time)["time_ratio"].get<double>()) best_time = &e;
+        }
+        double share = 0;
+        for (const nlohmann::json& m : r.at("methods"))
+            if (m.at("name") == "aaf_adaptive")
+                for (const nlohmann::json& p : m.at("points"))
+                    if (p.value("knob_value", 0.0) == 2.0) share = p.value("filter_share", 0.0);
+        const auto knob = [](const nlohmann::json& e) {  // presets have no knob
+            const std::string method = e.at("method").get<std::string>();
+            return method.rfind("preset_", 0) == 0 ? method : method + ", " + format("%g", e.at("knob_value").get<double>());
+        };
+        md += "| " + r.at("scene").get<std::string>() + " | " + std::to_string(r.at("width").get<int>()) + "x" +
+              std::to_string(r.at("height").get<int>()) + " | ";
+        if (at_mu2)
+            md += format("%.1f", (*at_mu2)["rays_per_pixel"].get<double>()) + " | " + format("%.4f", (*at_mu2)["rmse"].get<double>()) +
+                  " | " + format("%.0f", (*at_mu2)["baseline_rays_per_pixel"].get<double>()) + " | " + ratio(*at_mu2, "rays_ratio") +
+                  " | " + ratio(*at_mu2, "time_ratio") + " | " + format("%.1f %%", 100.0 * share) + " | ";
+        else
+            md += "- | - | - | - | - | - | ";
+        md += (best_rays ? ratio(*best_rays, "rays_ratio") + " (" + knob(*best_rays) + ")" : std::string("-")) + " | " +
+              (best_time ? ratio(*best_time, "time_ratio") + " (" + knob(*best_time) + ")" : std::string("-")) + " |\n";
+    }
+    const fs::path tmp = file.string() + ".tmp";
+    {
+        std::ofstream out(tmp);
+        out << md;
+        if (!out) throw std::runtime_error("cannot write " + tmp.string());
+    }
+    fs::rename(tmp, file);
+}
+
 int run(const options& o) {
+    if (!o.overview.empty()) {
+        write_overview(o.overview, o.overview_dirs);
+        return 0;
+    }
     if (o.replot) {
-        aaf_examples::tradeoff::write_outputs(read_json(o.out / "tradeoff.json"), o.out, o.plot);
+        aaf_examples::tradeoff::write_outputs(read_json(o.out / "tradeoff.json", "--replot"), o.out, o.plot);
         return 0;
     }
     const nlohmann::json result = aaf_examples::tradeoff::run(o.config);

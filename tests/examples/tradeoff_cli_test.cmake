@@ -4,7 +4,7 @@
 # string(JSON): every required field present with the right type, numbers finite and positive, one
 # equal-error entry per aaf/preset point; plus summary.md and tradeoff.gp. Every other case feeds one
 # kind of bad input and checks: exit code 1, exactly one line on stderr naming the problem, and no
-# output folder left behind.
+# output folder left behind. The ok case also checks --overview's row for the run.
 cmake_minimum_required(VERSION 3.25)
 
 set(dir "${WORK}/${CASE}")
@@ -158,6 +158,15 @@ if(CASE STREQUAL "ok")
     string(FIND "${md}" "Equal error" at)
     if(at EQUAL -1)
         message(FATAL_ERROR "summary.md lacks the equal-error table")
+    endif()
+    # --overview turns the run into one row of the cross-scene table (scripts/results writes it).
+    execute_process(COMMAND "${TRADEOFF}" --overview "${dir}/overview.md" "${out}" RESULT_VARIABLE rc ERROR_VARIABLE stderr)
+    if(NOT rc EQUAL 0 OR NOT EXISTS "${dir}/overview.md")
+        message(FATAL_ERROR "--overview failed (${rc}): ${stderr}")
+    endif()
+    file(READ "${dir}/overview.md" overview)
+    if(NOT overview MATCHES "\n\\| boxes \\| 64x48 \\| [0-9.]+ \\| [0-9.]+ \\| [0-9]+ \\| [<>]?[0-9.]+x \\| [<>]?[0-9.]+x \\|")
+        message(FATAL_ERROR "--overview: no complete row for boxes in:\n${overview}")
     endif()
     return()
 endif()
