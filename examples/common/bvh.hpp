@@ -155,9 +155,9 @@ public:
     /// Nearest hit of the ray origin + t·direction with 0 < t < t_max (direction of any non-zero length).
     [[nodiscard]] ray_hit nearest_hit(const glm::vec3& origin, const glm::vec3& direction,
                                       float t_max = std::numeric_limits<float>::infinity()) const noexcept;
-    /// aaf contract: nearest and farthest hit with 0 < t < length (two traversals: the nearest, then only when
-    /// it hit, the farthest beyond it); a miss is a default span; an invalid segment (non-finite, zero
-    /// direction, NaN length) gives NaN, which aaf drops as a failed sample.
+    /// aaf contract: nearest and farthest hit with 0 < t < length (the nearest-hit traversal, which sets aside
+    /// the subtrees it prunes, then a farthest-hit search of those subtrees only); a miss is a default span;
+    /// an invalid segment (non-finite, zero direction, NaN length) gives NaN, which aaf drops as a failed sample.
     [[nodiscard]] aaf::occluder_span<float> occluder_span(const aaf::shadow_segment<float>& segment) const noexcept;
     /// aaf contract: nearest hit with 0 < t < length, aaf::no_occluder on a miss, NaN for an invalid segment.
     [[nodiscard]] float nearest_occluder(const aaf::shadow_segment<float>& segment) const noexcept;
@@ -184,7 +184,10 @@ private:
     static bool prepare(const glm::vec3& origin, const glm::vec3& direction, traversal_ray& r) noexcept;
     static bool overlaps(const bvh_node& n, const traversal_ray& r, float t_lo, float t_hi, float& t_in, float& t_out) noexcept;
     template <query Q>
-    bool traverse(const traversal_ray& r, float t_lo, float t_hi, triangle_hit& best, std::uint32_t& slot) const noexcept;
+    bool traverse(const traversal_ray& r, float t_lo, float t_hi, triangle_hit& best, std::uint32_t& slot,
+                  std::uint32_t start = 0) const noexcept;
+    struct span_entry { std::uint32_t node; float t_in, t_out; };
+    static constexpr unsigned deferred_capacity = 8;  ///< subtrees set aside by occluder_span's first pass (more: searched at once)
 
     std::vector<bvh_node> nodes_;
     std::vector<triangle_vertices> tris_;  // leaf order
@@ -425,15 +428,17 @@ inline bool bvh::overlaps(const bvh_node& n, const traversal_ray& r, float t_lo,
 /// nearest: hits in (t_lo, t_hi), t_hi shrinks to each hit, near child first, stops when the stack's
 /// entries all start beyond t_hi. farthest: t_lo grows to each hit, child with the later exit first.
 /// any: returns at the first hit. Returns whether anything was hit; `best`/`slot` hold the answer.
+/// Searches the subtree of node `start` (the whole tree by default).
 template <bvh::query Q>
-bool bvh::traverse(const traversal_ray& r, float t_lo, float t_hi, triangle_hit& best, std::uint32_t& slot) const noexcept {
+bool bvh::traverse(const traversal_ray& r, float t_lo, float t_hi, triangle_hit& best, std::uint32_t& slot,
+                   std::uint32_t start) const noexcept {
     struct entry { std::uint32_t node; float key; };  // key: entry (nearest) or exit (farthest) distance
     std::array<entry, max_depth + 1> stack;  // one push per level at most
     unsigned top = 0;
     bool found = false;
     float t_in = 0, t_out = 0;
-    if (!overlaps(nodes_[0], r, t_lo, t_hi, t_in, t_out)) return false;
-    std::uint32_t current = 0;
+    if (!overlaps(nodes_[start], r, t_lo, t_hi, t_in, t_out)) return false;
+    std::uint32_t current = start;
     for (;;) {
         const bvh_node& n = nodes_[current];
         if (n.count != 0) {
@@ -489,12 +494,80 @@ inline ray_hit bvh::nearest_hit(const glm::vec3& origin, const glm::vec3& direct
 inline aaf::occluder_span<float> bvh::occluder_span(const aaf::shadow_segment<float>& s) const noexcept {
     traversal_ray r;
     if (!prepare(s.origin, s.direction, r) || std::isnan(s.length)) return {std::numeric_limits<float>::quiet_NaN(), 0.0f};
-    triangle_hit nearest, farthest;
+    constexpr float eps = 0.5f * std::numeric_limits<float>::epsilon();
+    constexpr float robust = 1.0f + 2.0f * (3.0f * eps / (1.0f - 3.0f * eps));  // as in overlaps()
+    const float length = s.length;
+    float t_min = std::numeric_limits<float>::infinity(), t_max = -std::numeric_limits<float>::infinity();
+    triangle_hit h;
     std::uint32_t slot = 0;
-    if (!traverse<query::nearest>(r, 0.0f, s.length, nearest, slot)) return {};
-    // The farthest occluder lies in (nearest, length): a second traversal with its own pruning.
-    if (!traverse<query::farthest>(r, nearest.t, s.length, farthest, slot)) farthest = nearest;
-    return {nearest.t, farthest.t};
+    // Pass 1 is the nearest-hit traversal (the same nodes in the same order, near child first), except that
+    // every hit in (0, length) also raises t_max, and a subtree it prunes because it starts beyond t_min is
+    // set aside (deferred) when it may still end beyond t_max. Pass 2 searches only the deferred subtrees for
+    // the farthest hit, largest exit first, instead of the whole tree again. A deferred subtree holds no hit
+    // below t_min (the pruning test is the nearest query's own, conservative one), so the two passes see
+    // every hit that can be the nearest or the farthest.
+    std::array<span_entry, deferred_capacity> deferred;
+    unsigned n_deferred = 0;
+    const auto farthest_in = [&](std::uint32_t node) noexcept {
+        if (traverse<query::farthest>(r, t_max, length, h, slot, node)) t_max = h.t;
+    };
+    const auto defer = [&](std::uint32_t node, float t_in, float t_out) noexcept {
+        if (!(t_out >= t_max)) return;  // t_max only grows: nothing in there can be the farthest
+        if (n_deferred < deferred_capacity) deferred[n_deferred++] = {node, t_in, t_out};
+        else farthest_in(node);  // no room: search it now (pass 2 would, later)
+    };
+    std::array<span_entry, max_depth + 1> stack;  // one push per level at most
+    unsigned top = 0;
+    float t_in = 0, t_out = 0;
+    if (!overlaps(nodes_[0], r, 0.0f, length, t_in, t_out)) return {};
+    std::uint32_t current = 0;
+    for (bool more = true; more;) {
+        const bvh_node& n = nodes_[current];
+        if (n.count != 0) {
+            for (std::uint32_t i = n.index; i < n.index + n.count; ++i) {
+                const triangle_vertices& tri = tris_[i];
+                if (!intersect_triangle(r.w, tri.p0, tri.p1, tri.p2, 0.0f, length, h)) continue;
+                t_min = std::min(t_min, h.t), t_max = std::max(t_max, h.t);
+            }
+        } else {
+            float in0, out0, in1, out1;
+            bool hit0 = overlaps(nodes_[n.index], r, 0.0f, length, in0, out0);
+            bool hit1 = overlaps(nodes_[n.index + 1], r, 0.0f, length, in1, out1);
+            // Same as overlaps() with t_hi = t_min: t_in <= min(t_far, t_min) * robust.
+            const float limit = t_min * robust;
+            if (hit0 && !(in0 <= limit)) defer(n.index, in0, out0), hit0 = false;
+            if (hit1 && !(in1 <= limit)) defer(n.index + 1, in1, out1), hit1 = false;
+            if (hit0 && hit1) {
+                const bool second_first = in1 < in0;
+                stack[top++] = second_first ? span_entry{n.index, in0, out0} : span_entry{n.index + 1, in1, out1};
+                current = second_first ? n.index + 1 : n.index;
+                continue;
+            }
+            if (hit0 || hit1) {
+                current = hit0 ? n.index : n.index + 1;
+                continue;
+            }
+        }
+        for (more = false; top > 0;) {  // pop the next node that may hold a nearer hit; defer the others
+            const span_entry e = stack[--top];
+            if (e.t_in <= t_min * robust) {
+                current = e.node, more = true;
+                break;
+            }
+            defer(e.node, e.t_in, e.t_out);
+        }
+    }
+    if (!(t_min <= t_max)) return {};
+    while (n_deferred > 0) {  // pass 2: the deferred subtree with the largest exit first, until none can help
+        unsigned pick = 0;
+        for (unsigned i = 1; i < n_deferred; ++i)
+            if (deferred[i].t_out > deferred[pick].t_out) pick = i;
+        const span_entry e = deferred[pick];
+        if (!(e.t_out >= t_max)) break;
+        deferred[pick] = deferred[--n_deferred];
+        farthest_in(e.node);
+    }
+    return {t_min, t_max};
 }
 
 inline float bvh::nearest_occluder(const aaf::shadow_segment<float>& s) const noexcept {

@@ -557,6 +557,110 @@ TEST_CASE("bvh follows the tracer contract at its edges", "[bvh][contract]") {
     CHECK(std::abs(s.nearest - 2.0f) <= 8.0f / 4096.0f);
 }
 
+namespace {
+
+/// occluder_span, nearest_occluder and occluded against brute force on segments that start strictly inside the
+/// mesh's bounds and end exactly at one of the ray's hits or one float before it, for the nearest, the
+/// farthest and a middle hit: the open interval (0, length) must drop a hit at t == length, and every
+/// other hit before it must count. Segments ending one float AFTER a hit are only checked for agreement
+/// between the three queries: the traversal clips boxes at length (scaled by the slab test's 1 + 2γ₃), and a
+/// triangle's t can round a few ulps below its box's computed entry, so a hit within a few ulps of length
+/// can be missed by all of them (a known limitation, counted in `late_misses`). Returns the number of
+/// segments compared; mismatches go to `mismatches`.
+std::size_t check_segment_ends(const bvh& b, const triangle_mesh& m, std::size_t n_rays, std::uint32_t seed,
+                               std::vector<std::string>& mismatches, std::size_t& late_misses) {
+    vec3 lo(inf), hi(-inf);
+    for (const glm::uvec3& t : m.triangles)
+        for (int k = 0; k < 3; ++k) lo = glm::min(lo, m.vertices[t[k]]), hi = glm::max(hi, m.vertices[t[k]]);
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+    std::uniform_int_distribution<std::size_t> pick(0, m.triangles.size() - 1);
+    std::vector<hit_record> hits;
+    std::size_t segments = 0;
+    for (std::size_t i = 0; i < n_rays; ++i) {
+        const vec3 origin = lo + (0.05f + 0.9f * vec3(u01(rng), u01(rng), u01(rng))) * (hi - lo);
+        vec3 d;
+        if (i % 2 == 0) {  // at a random point of a random triangle (so most rays hit)
+            const glm::uvec3 t = m.triangles[pick(rng)];
+            float b1 = u01(rng), b2 = u01(rng);
+            if (b1 + b2 > 1.0f) b1 = 1.0f - b1, b2 = 1.0f - b2;
+            const vec3 target = (1.0f - b1 - b2) * m.vertices[t.x] + b1 * m.vertices[t.y] + b2 * m.vertices[t.z];
+            if (target == origin) continue;
+            d = glm::normalize(target - origin);
+        } else {
+            const float z = 2.0f * u01(rng) - 1.0f, phi = 6.2831853f * u01(rng), s = std::sqrt(std::max(0.0f, 1.0f - z * z));
+            d = vec3(s * std::cos(phi), s * std::sin(phi), z);
+        }
+        all_hits(m, origin, d, hits);
+        if (hits.empty()) continue;
+        std::vector<float> ts;
+        for (const hit_record& h : hits) ts.push_back(h.t);
+        std::sort(ts.begin(), ts.end());
+        for (const float end : {ts.front(), ts[ts.size() / 2], ts.back()})
+            for (const float length : {end, std::nextafter(end, 0.0f), std::nextafter(end, inf)}) {
+                float nearest = inf, farthest = -inf;
+                for (const float t : ts)
+                    if (t < length) nearest = std::min(nearest, t), farthest = std::max(farthest, t);
+                const aaf::shadow_segment<float> seg{origin, d, length};
+                const aaf::occluder_span<float> span = b.occluder_span(seg);
+                const test_ray r{origin, d, length, 1.0f, false};
+                ++segments;
+                if (length > end) {  // one float after a hit: the three queries agree with each other
+                    const bool same = span.nearest == b.nearest_occluder(seg) && span.hit() == b.occluded(seg);
+                    if (!same && mismatches.size() < 10)
+                        mismatches.push_back(describe(r, "occluder_span vs nearest_occluder", span.nearest, b.nearest_occluder(seg)));
+                    if (span.nearest != nearest || span.farthest != farthest) ++late_misses;
+                    continue;
+                }
+                if (span.nearest != nearest || span.farthest != farthest) {
+                    if (mismatches.size() < 10) mismatches.push_back(describe(r, "occluder_span.nearest", span.nearest, nearest));
+                    if (mismatches.size() < 10) mismatches.push_back(describe(r, "occluder_span.farthest", span.farthest, farthest));
+                }
+                if (b.nearest_occluder(seg) != nearest && mismatches.size() < 10)
+                    mismatches.push_back(describe(r, "nearest_occluder", b.nearest_occluder(seg), nearest));
+                if (b.occluded(seg) != (nearest <= farthest) && mismatches.size() < 10)
+                    mismatches.push_back(describe(r, "occluded", b.occluded(seg), nearest <= farthest));
+            }
+    }
+    return segments;
+}
+
+}  // namespace
+
+TEST_CASE("occluder_span: segments from inside the bounds ending exactly at, one float before and after a hit",
+          "[bvh][contract]") {
+    struct mesh_case { std::string name; triangle_mesh mesh; bvh_build_options options; std::size_t rays; };
+    std::vector<mesh_case> cases;
+    cases.push_back({"bunny", aaf_examples::load_triangles(asset("bun_zipper.ply")), {}, 200});
+    cases.push_back({"plant, 1 per leaf", aaf_examples::load_triangles(asset("plant.obj")), {1, 2}, 600});
+    cases.push_back({"bench", aaf_examples::load_triangles(asset("bench.obj")), {}, 1500});
+    cases.push_back({"blinds", aaf_examples::load_triangles(asset("window-blinds.obj")), {}, 1500});
+    cases.push_back({"Cornell box", aaf_examples::load_triangles(asset("CornellBox-Original.obj")), {}, 1500});
+    {  // a dense soup: rays cross many separate subtrees (more than occluder_span keeps aside at once)
+        triangle_mesh soup;
+        std::mt19937 rng(12);
+        std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+        for (unsigned i = 0; i < 10000; ++i) {
+            const vec3 c(u(rng), u(rng), u(rng));
+            for (int k = 0; k < 3; ++k) soup.vertices.push_back(c + 0.05f * vec3(u(rng), u(rng), u(rng)));
+            soup.triangles.push_back({3 * i, 3 * i + 1, 3 * i + 2});
+        }
+        cases.push_back({"soup, 1 per leaf", soup, {1, 2}, 600});
+    }
+    for (const mesh_case& c : cases) {
+        const bvh b(c.mesh.vertices, c.mesh.triangles, c.options);
+        std::vector<std::string> mismatches;
+        std::size_t late_misses = 0;
+        const std::size_t segments = check_segment_ends(b, c.mesh, c.rays, 21, mismatches, late_misses);
+        INFO(c.name << ": " << segments << " segments");
+        for (const std::string& s : mismatches) UNSCOPED_INFO(s);
+        CHECK(segments > 4 * c.rays);  // 9 per ray that hits: the rays aimed at a triangle, and some more
+        CHECK(mismatches.empty());
+        std::printf("segment ends, %s: %zu segments, %zu mismatches, %zu hits one float before length missed by all "
+                    "queries (known)\n", c.name.c_str(), segments, mismatches.size(), late_misses);
+    }
+}
+
 TEST_CASE("bvh rejects unusable input with a clear message", "[bvh][errors]") {
     const std::vector<vec3> v = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
     const auto message = [&](std::vector<glm::uvec3> t, bvh_build_options o = {}) {
