@@ -498,8 +498,6 @@ inline aaf::occluder_span<float> bvh::occluder_span(const aaf::shadow_segment<fl
     constexpr float robust = 1.0f + 2.0f * (3.0f * eps / (1.0f - 3.0f * eps));  // as in overlaps()
     const float length = s.length;
     float t_min = std::numeric_limits<float>::infinity(), t_max = -std::numeric_limits<float>::infinity();
-    triangle_hit h;
-    std::uint32_t slot = 0;
     // Pass 1 is the nearest-hit traversal (the same nodes in the same order, near child first), except that
     // every hit in (0, length) also raises t_max, and a subtree it prunes because it starts beyond t_min is
     // set aside (deferred) when it may still end beyond t_max. Pass 2 searches only the deferred subtrees for
@@ -508,13 +506,15 @@ inline aaf::occluder_span<float> bvh::occluder_span(const aaf::shadow_segment<fl
     // every hit that can be the nearest or the farthest.
     std::array<span_entry, deferred_capacity> deferred;
     unsigned n_deferred = 0;
-    const auto farthest_in = [&](std::uint32_t node) noexcept {
-        if (traverse<query::farthest>(r, t_max, length, h, slot, node)) t_max = h.t;
-    };
     const auto defer = [&](std::uint32_t node, float t_in, float t_out) noexcept {
         if (!(t_out >= t_max)) return;  // t_max only grows: nothing in there can be the farthest
-        if (n_deferred < deferred_capacity) deferred[n_deferred++] = {node, t_in, t_out};
-        else farthest_in(node);  // no room: search it now (pass 2 would, later)
+        if (n_deferred < deferred_capacity) {
+            deferred[n_deferred++] = {node, t_in, t_out};
+        } else {  // no room (rare): search it now, as pass 2 would later
+            triangle_hit h;
+            std::uint32_t slot = 0;
+            if (traverse<query::farthest>(r, t_max, length, h, slot, node)) t_max = h.t;
+        }
     };
     std::array<span_entry, max_depth + 1> stack;  // one push per level at most
     unsigned top = 0;
@@ -526,6 +526,7 @@ inline aaf::occluder_span<float> bvh::occluder_span(const aaf::shadow_segment<fl
         if (n.count != 0) {
             for (std::uint32_t i = n.index; i < n.index + n.count; ++i) {
                 const triangle_vertices& tri = tris_[i];
+                triangle_hit h;
                 if (!intersect_triangle(r.w, tri.p0, tri.p1, tri.p2, 0.0f, length, h)) continue;
                 t_min = std::min(t_min, h.t), t_max = std::max(t_max, h.t);
             }
@@ -558,14 +559,46 @@ inline aaf::occluder_span<float> bvh::occluder_span(const aaf::shadow_segment<fl
         }
     }
     if (!(t_min <= t_max)) return {};
-    while (n_deferred > 0) {  // pass 2: the deferred subtree with the largest exit first, until none can help
+    // Pass 2: the deferred subtree with the largest exit first, until none can hold a hit beyond t_max; in
+    // each, traverse<query::farthest> inlined (hits in (t_max, length), child with the later exit first).
+    while (n_deferred > 0) {
         unsigned pick = 0;
         for (unsigned i = 1; i < n_deferred; ++i)
             if (deferred[i].t_out > deferred[pick].t_out) pick = i;
-        const span_entry e = deferred[pick];
-        if (!(e.t_out >= t_max)) break;
+        if (!(deferred[pick].t_out >= t_max)) break;
+        current = deferred[pick].node;
         deferred[pick] = deferred[--n_deferred];
-        farthest_in(e.node);
+        for (bool more = true; more;) {
+            const bvh_node& n = nodes_[current];
+            if (n.count != 0) {
+                for (std::uint32_t i = n.index; i < n.index + n.count; ++i) {
+                    const triangle_vertices& tri = tris_[i];
+                    triangle_hit h;
+                    if (intersect_triangle(r.w, tri.p0, tri.p1, tri.p2, t_max, length, h)) t_max = h.t;
+                }
+            } else {
+                float in0, out0, in1, out1;
+                const bool hit0 = overlaps(nodes_[n.index], r, t_max, length, in0, out0);
+                const bool hit1 = overlaps(nodes_[n.index + 1], r, t_max, length, in1, out1);
+                if (hit0 && hit1) {
+                    const bool second_first = out1 > out0;
+                    stack[top++] = second_first ? span_entry{n.index, in0, out0} : span_entry{n.index + 1, in1, out1};
+                    current = second_first ? n.index + 1 : n.index;
+                    continue;
+                }
+                if (hit0 || hit1) {
+                    current = hit0 ? n.index : n.index + 1;
+                    continue;
+                }
+            }
+            for (more = false; top > 0;) {
+                const span_entry e = stack[--top];
+                if (e.t_out >= t_max) {
+                    current = e.node, more = true;
+                    break;
+                }
+            }
+        }
     }
     return {t_min, t_max};
 }
