@@ -173,6 +173,8 @@ int run(aaf_fuzz::reader& in) {
     s.sampling.weighting = static_cast<aaf::light_weighting>(in.byte() % 3u);
     s.sampling.frame_seed = in.raw<std::uint32_t>();
     s.sampling.light_index = in.raw<std::uint32_t>();
+    // From a bit already read, so the corpus's byte layout stays as it was.
+    s.sampling.adaptive_query = (s.sampling.frame_seed & 1u) ? aaf::shadow_query::distances : aaf::shadow_query::visibility;
     if (in.flag()) s.sampling.origin_offset = in.value(1e-3);
     s.formulas.form = in.flag() ? aaf::formula_form::authors : aaf::formula_form::paper;
     s.formulas.k = in.value(s.formulas.k);

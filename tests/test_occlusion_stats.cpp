@@ -367,3 +367,86 @@ TEST_CASE("through gather_occlusion d2 is the occluder's true distance to the li
         CHECK(s.d2max == Approx(2.0f).epsilon(4e-7));
     }
 }
+
+// Visibility-only samples (shadow_query::visibility, the adaptive pass's default).
+#include <atomic>
+
+#include <aaf/gather.hpp>
+
+TEMPLATE_TEST_CASE("add_visibility_sample counts visibility and weight but leaves the distances alone", "[stats]", float, double) {
+    using T = TestType;
+    aaf::occlusion_stats<T> s;
+    s.add_sample(T(2), T(3), T(4), span<T>(T(1), T(2)));  // one distance sample: d2 in [1.5, 2.25]
+    const aaf::occlusion_stats<T> before = s;
+    s.add_visibility_sample(T(0.5), false);
+    s.add_visibility_sample(T(1.5), true);
+    s.add_visibility_sample(T(0), false);                                   // zero weight: counted only
+    s.add_visibility_sample(std::numeric_limits<T>::quiet_NaN(), true);     // invalid weight: counted only
+    CHECK(s.samples == before.samples + 4);
+    CHECK(s.total_weight == T(4));
+    CHECK(s.visible_weight == T(0.5));
+    CHECK(s.occluded == before.occluded);
+    CHECK(s.d1 == before.d1);
+    CHECK(s.d2min == before.d2min);
+    CHECK(s.d2max == before.d2max);
+    CHECK(aaf::slopes(s).s1 == aaf::slopes(before).s1);
+    CHECK(aaf::slopes(s).s2 == aaf::slopes(before).s2);
+    // Alone, blocked visibility samples give visibility 0 and still no slopes (no distances were seen).
+    aaf::occlusion_stats<T> only;
+    only.add_visibility_sample(T(1), true);
+    CHECK(only.visibility() == T(0));
+    CHECK_FALSE(only.has_occluder());
+    CHECK_FALSE(aaf::slopes(only).has_occluder());
+}
+
+namespace {
+
+/// Span and boolean queries over the analytic scene, counting the calls of each (thread-safe).
+struct counting_scene_tracer {
+    const aaf_test::analytic_scene<float>* scene;
+    mutable std::atomic<std::uint64_t> spans{0}, booleans{0};
+    aaf::occluder_span<float> occluder_span(const aaf::shadow_segment<float>& s) const { return ++spans, scene->span(s); }
+    bool occluded(const aaf::shadow_segment<float>& s) const { return ++booleans, scene->span(s).hit(); }
+};
+
+}  // namespace
+
+TEST_CASE("gather_visibility: same visibility as gather_occlusion under every weighting, distances untouched",
+          "[stats][gather]") {
+    aaf_test::analytic_scene<float> sc;
+    sc.width = sc.height = 24;
+    sc.occluders = {{-0.6f, 0.6f, -0.3f, 0.3f, 1.0f}, {0.2f, 1.4f, 0.1f, 0.5f, 1.8f}};
+    const aaf_test::analytic_gbuffer<float> gb(sc);
+    for (const auto weighting : {aaf::light_weighting::uniform, aaf::light_weighting::gaussian, aaf::light_weighting::irradiance}) {
+        CAPTURE(static_cast<int>(weighting));
+        aaf::sampling_settings ss;
+        ss.weighting = weighting;
+        // A first pass with distances, then the same second pass three ways.
+        aaf::image<aaf::occlusion_stats<float>> first(sc.width, sc.height);
+        aaf::gather_occlusion(gb.view(), sc.area_light(), aaf_test::span_tracer<float>{&sc}, ss, 0, 9, first.view());
+        aaf::image<aaf::occlusion_stats<float>> dist = first, vis_bool = first, vis_span = first;
+        const std::uint64_t r0 = aaf::gather_occlusion(gb.view(), sc.area_light(), aaf_test::span_tracer<float>{&sc}, ss, 1, 16, dist.view());
+        counting_scene_tracer counting{&sc};
+        const std::uint64_t r1 = aaf::gather_visibility(gb.view(), sc.area_light(), counting, ss, 1, 16, vis_bool.view());
+        const std::uint64_t r2 = aaf::gather_visibility(gb.view(), sc.area_light(), aaf_test::span_tracer<float>{&sc}, ss, 1, 16, vis_span.view());
+        CHECK(r0 == r1);
+        CHECK(r0 == r2);
+        CHECK(counting.booleans.load() == r1);  // the boolean query when there is one
+        CHECK(counting.spans.load() == 0);
+        std::size_t changed = 0;
+        for (std::size_t i = 0; i < first.size(); ++i) {
+            const auto &f = first.data()[i], &d = dist.data()[i], &b = vis_bool.data()[i], &s = vis_span.data()[i];
+            for (const auto* v : {&b, &s}) {
+                CHECK(v->visible_weight == d.visible_weight);  // same samples, same weights, same order
+                CHECK(v->total_weight == d.total_weight);
+                CHECK(v->samples == d.samples);
+                CHECK(v->occluded == f.occluded);              // distances: the first pass's only
+                CHECK(v->d1 == f.d1);
+                CHECK(v->d2min == f.d2min);
+                CHECK(v->d2max == f.d2max);
+            }
+            if (b.visible_weight != f.visible_weight || b.total_weight != f.total_weight) ++changed;
+        }
+        CHECK(changed > 0);
+    }
+}

@@ -40,6 +40,7 @@ struct method_def {
     bool guides = true;
     aaf::frame_preset preset = aaf::frame_preset::balanced;
     std::string description;
+    aaf::shadow_query adaptive_query = aaf::sampling_settings{}.adaptive_query;  ///< the library's default unless named
 };
 
 const std::vector<method_def>& definitions() {
@@ -55,13 +56,17 @@ const std::vector<method_def>& definitions() {
         {"aaf_fixed", method_kind::aaf, "initial_samples", sample_pattern::stratified, offset_space::image, false, true, {},
          "aaf filter on a fixed sample count, no adaptive pass"},
         {"aaf_adaptive", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::image, false, true, {},
-         "aaf: 9 initial samples, adaptive pass, image-space offsets, all-hits statistics, normal and ID guides"},
+         "aaf: 9 initial samples, visibility-only adaptive pass, image-space offsets, all-hits statistics, normal and ID guides"},
         {"aaf_light_plane", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::light_plane, false, true, {},
          "as aaf_adaptive with light-parallel world offsets (positions guide)"},
         {"aaf_first_hit", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::image, true, true, {},
          "as aaf_adaptive with first-hit statistics (nearest occluder only)"},
         {"aaf_no_guides", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::image, false, false, {},
          "as aaf_adaptive without normal and ID guides"},
+        {"aaf_refined_slopes", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::image, false, true, {},
+         "as aaf_adaptive with adaptive rays that also find occluder distances and refine the slopes "
+         "(shadow_query::distances)",
+         aaf::shadow_query::distances},
         {"preset_fast", method_kind::preset, "preset", sample_pattern::stratified, offset_space::image, false, true,
          aaf::frame_preset::fast, "aaf::preset(frame_preset::fast)"},
         {"preset_balanced", method_kind::preset, "preset", sample_pattern::stratified, offset_space::image, false, true,
@@ -98,6 +103,7 @@ aaf::frame_settings<float> aaf_settings(const method_def& m, double knob, const 
             fs.sampling.max_samples = std::max<std::uint32_t>(9, max_samples_for_mu(knob));
         }
         fs.filter.space = m.space;
+        fs.sampling.adaptive_query = m.adaptive_query;
         // render_frame always filters with normals (and IDs when the G-buffer has them): a threshold of
         // 180° accepts every finite normal, which is the normal guide switched off.
         if (!m.guides) fs.filter.normal_threshold_degrees = 180;
@@ -139,6 +145,8 @@ json settings_json(const method_def& m, const config& c) {
         j["max_samples_rule"] = "max(9, round(100 * (mu / 2)^2)): proportional to mu^2, 100 at mu = 2";
     }
     j["adaptive"] = fs.sampling.adaptive;
+    if (fs.sampling.adaptive)
+        j["adaptive_query"] = fs.sampling.adaptive_query == aaf::shadow_query::visibility ? "visibility" : "distances";
     j["offsets"] = fs.filter.space == aaf::offset_space::light_plane ? "light_plane" : "image";
     json guides = json::array();
     if (m.guides) guides.push_back("normals"), guides.push_back("ids");
@@ -147,6 +155,9 @@ json settings_json(const method_def& m, const config& c) {
     j["normal_threshold_degrees"] = fs.filter.normal_threshold_degrees;
     j["stats"] = m.first_hit ? "first_hit" : "all_hits";
     j["tracer"] = m.first_hit ? "BVH nearest occluder" : "BVH nearest and farthest occluder";
+    // first_hit_tracer has no any-hit query, so its visibility-only adaptive rays fall back to nearest_occluder.
+    if (fs.sampling.adaptive && fs.sampling.adaptive_query == aaf::shadow_query::visibility && !m.first_hit)
+        j["tracer"] = "BVH nearest and farthest occluder; any-hit in the adaptive pass";
     j["formula_form"] = fs.formulas.form == aaf::formula_form::paper ? "paper" : "authors";
     j["k"] = fs.formulas.k;
     j["alpha"] = fs.formulas.alpha;

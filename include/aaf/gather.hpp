@@ -73,11 +73,13 @@ struct pixel_scratch {
     std::vector<glm::vec<2, T>> uv;
     std::vector<shadow_segment<T>> segments;
     std::vector<occluder_span<T>> hits;
+    std::vector<visibility_hit> visible;  // visibility-only passes
     std::vector<T> weights;
 };
 
-/// Draws `count` samples for pixel (x, y) and adds them to `stats`. Returns the number of rays traced.
-template <class T, class Tracer>
+/// Draws `count` samples for pixel (x, y) and adds them to `stats` (with distances, or visibility only for
+/// shadow_query::visibility). Returns the number of rays traced.
+template <shadow_query Query, class T, class Tracer>
 std::uint64_t gather_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const area_light<T>& light,
                            const light_sample_frame<T>& frame, const Tracer& tracer, const sampling_settings& s,
                            const sample_key& key, std::uint32_t count, occlusion_stats<T>& stats, pixel_scratch<T>& scratch) {
@@ -87,6 +89,7 @@ std::uint64_t gather_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, con
         scratch.segments.resize(count);
         scratch.weights.resize(count);
         scratch.hits.resize(count);
+        if constexpr (Query == shadow_query::visibility) scratch.visible.resize(count);
     }
     // Offset the origin to the light's side of the surface (Wächter–Binder: no epsilon to tune).
     const glm::vec<3, T> origin = shadow_ray_origin(p, n, frame.center, s.origin_offset);
@@ -105,14 +108,60 @@ std::uint64_t gather_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, con
     }
     const std::uint32_t skipped = count - static_cast<std::uint32_t>(traced);  // drawn, counted, not traced
     std::fill_n(scratch.hits.begin(), traced, occluder_span<T>{});
-    if (traced != 0)
-        trace_all<T>(tracer, std::span<const shadow_segment<T>>(scratch.segments.data(), traced),
-                     std::span<occluder_span<T>>(scratch.hits.data(), traced));
+    const std::span<const shadow_segment<T>> segments(scratch.segments.data(), traced);
+    const std::span<occluder_span<T>> hits(scratch.hits.data(), traced);
     // Statistics do not depend on sample order, so traced samples are added first, skipped ones after.
-    for (std::size_t i = 0; i < traced; ++i)
-        stats.add_sample(scratch.weights[i], d1, scratch.segments[i].length, scratch.hits[i]);
+    if constexpr (Query == shadow_query::visibility) {
+        if (traced != 0) trace_visibility<T>(tracer, segments, hits, std::span<visibility_hit>(scratch.visible.data(), traced));
+        for (std::size_t i = 0; i < traced; ++i) {
+            if (scratch.visible[i] == visibility_hit::failed) ++stats.samples;  // dropped, as add_sample drops NaN hits
+            else stats.add_visibility_sample(scratch.weights[i], scratch.visible[i] == visibility_hit::blocked);
+        }
+    } else {
+        if (traced != 0) trace_all<T>(tracer, segments, hits);
+        for (std::size_t i = 0; i < traced; ++i)
+            stats.add_sample(scratch.weights[i], d1, scratch.segments[i].length, scratch.hits[i]);
+    }
     stats.samples += skipped;
     return traced;
+}
+
+}  // namespace detail
+
+namespace detail {
+
+template <shadow_query Query, class T, class Ids, class Tracer, class Exec>
+std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
+                          const sampling_settings& s, std::uint32_t pass, std::uint32_t samples_per_pixel,
+                          image_view<occlusion_stats<T>> stats, const_image_view<std::uint32_t> sample_counts, Exec&& exec) {
+    require_gbuffer(fn, gb);
+    require_light(fn, light);
+    validate(s, fn);
+    const std::size_t w = gb.width(), h = gb.height();
+    require_size(fn, "stats", stats, w, h);
+    require_size_or_empty(fn, "sample_counts", sample_counts, w, h);
+    if (samples_per_pixel > s.max_samples && sample_counts.empty())
+        throw_invalid(fn, "`samples_per_pixel` exceeds settings.max_samples");
+    std::atomic<std::uint64_t> rays{0};
+    const light_sample_frame<T> frame(light, s.weighting);
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        pixel_scratch<T> scratch;
+        std::uint64_t local = 0;
+        for (std::size_t y = y0; y < y1; ++y) {
+            for (std::size_t x = 0; x < w; ++x) {
+                const std::uint32_t count = sample_counts.empty() ? samples_per_pixel : sample_counts(x, y);
+                if (count == 0) continue;
+                const glm::vec<3, T> p = gb.positions(x, y);
+                const glm::vec<3, T> n = gb.normals(x, y);
+                if (!std::isfinite(p.x + p.y + p.z) || !std::isfinite(n.x + n.y + n.z)) continue;
+                const sample_key key{static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y), pass, s.light_index,
+                                     s.frame_seed};
+                local += gather_pixel<Query>(p, n, light, frame, tracer, s, key, std::min(count, s.max_samples), stats(x, y), scratch);
+            }
+        }
+        rays += local;
+    });
+    return rays.load();
 }
 
 }  // namespace detail
@@ -127,35 +176,22 @@ std::uint64_t gather_occlusion(const gbuffer<T, Ids>& gb, const area_light<T>& l
                                const sampling_settings& s, std::uint32_t pass, std::uint32_t samples_per_pixel,
                                image_view<occlusion_stats<T>> stats, const_image_view<std::uint32_t> sample_counts = {},
                                Exec&& exec = {}) {
-    constexpr const char* fn = "gather_occlusion";
-    detail::require_gbuffer(fn, gb);
-    detail::require_light(fn, light);
-    validate(s, fn);
-    const std::size_t w = gb.width(), h = gb.height();
-    detail::require_size(fn, "stats", stats, w, h);
-    detail::require_size_or_empty(fn, "sample_counts", sample_counts, w, h);
-    if (samples_per_pixel > s.max_samples && sample_counts.empty())
-        detail::throw_invalid(fn, "`samples_per_pixel` exceeds settings.max_samples");
-    std::atomic<std::uint64_t> rays{0};
-    const light_sample_frame<T> frame(light, s.weighting);
-    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
-        detail::pixel_scratch<T> scratch;
-        std::uint64_t local = 0;
-        for (std::size_t y = y0; y < y1; ++y) {
-            for (std::size_t x = 0; x < w; ++x) {
-                const std::uint32_t count = sample_counts.empty() ? samples_per_pixel : sample_counts(x, y);
-                if (count == 0) continue;
-                const glm::vec<3, T> p = gb.positions(x, y);
-                const glm::vec<3, T> n = gb.normals(x, y);
-                if (!std::isfinite(p.x + p.y + p.z) || !std::isfinite(n.x + n.y + n.z)) continue;
-                const sample_key key{static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y), pass, s.light_index,
-                                     s.frame_seed};
-                local += detail::gather_pixel(p, n, light, frame, tracer, s, key, std::min(count, s.max_samples), stats(x, y), scratch);
-            }
-        }
-        rays += local;
-    });
-    return rays.load();
+    return detail::gather_rows<shadow_query::distances>("gather_occlusion", gb, light, tracer, s, pass, samples_per_pixel,
+                                                        stats, sample_counts, exec);
+}
+
+/// As gather_occlusion, but each sample asks only "occluded or not" (the tracer's `occluded` when it has
+/// one, else its distance query with the distances ignored) and is recorded with
+/// occlusion_stats::add_visibility_sample: visibility and sample counts change, d1/d2min/d2max do not.
+/// Same samples as gather_occlusion for the same key and pass, so the two agree on visibility.
+template <class T, class Ids, class Tracer, class Exec = sequential_executor>
+    requires occlusion_tracer<Tracer, T>
+std::uint64_t gather_visibility(const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
+                                const sampling_settings& s, std::uint32_t pass, std::uint32_t samples_per_pixel,
+                                image_view<occlusion_stats<T>> stats, const_image_view<std::uint32_t> sample_counts = {},
+                                Exec&& exec = {}) {
+    return detail::gather_rows<shadow_query::visibility>("gather_visibility", gb, light, tracer, s, pass, samples_per_pixel,
+                                                         stats, sample_counts, exec);
 }
 
 }  // namespace v0

@@ -32,7 +32,7 @@ struct occlusion_stats {
     T visible_weight = 0;                            ///< Σ weight of samples that reached the light
     T total_weight = 0;                              ///< Σ weight of all counted samples
     std::uint32_t samples = 0;                       ///< samples drawn (including zero-weight ones)
-    std::uint32_t occluded = 0;                      ///< samples that hit an occluder
+    std::uint32_t occluded = 0;                      ///< samples that hit an occluder and gave its distances
     T d1 = 0;                                        ///< receiver-to-light-plane distance (world units)
     T d2min = std::numeric_limits<T>::infinity();    ///< smallest occluder-to-light distance seen
     T d2max = 0;                                     ///< largest occluder-to-light distance seen
@@ -58,6 +58,17 @@ struct occlusion_stats {
         const T far_t = std::clamp(hit.farthest, near_t, length);
         d2max = std::max(d2max, receiver_d1 * (length - near_t) / length);
         d2min = std::min(d2min, receiver_d1 * (length - far_t) / length);
+    }
+
+    /// Records one visibility-only sample (shadow_query::visibility): it counts in `samples`, `total_weight`
+    /// and, when not `blocked`, `visible_weight`, but leaves d1, d2min, d2max and `occluded` alone, so the
+    /// slopes stay those of the distance samples. A weight that is not finite and positive counts in
+    /// `samples` only, as in add_sample.
+    constexpr void add_visibility_sample(T weight, bool blocked) noexcept {
+        ++samples;
+        if (!(weight > T(0)) || !std::isfinite(weight)) return;
+        total_weight += weight;
+        if (!blocked) visible_weight += weight;
     }
 
     /// Visibility in [0, 1]: Σ weight of unoccluded samples / Σ weight. NaN when no sample counted

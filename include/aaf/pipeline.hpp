@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 // One call for a whole frame: initial samples → statistics → slope spreading → β and n → adaptive
-// samples → filter → filtered visibility (and the shaded result). Every stage is also public on its own:
-// gather_occlusion (gather.hpp), slopes (occlusion_stats.hpp), spread_slopes and filter_visibility
-// (filter.hpp), filter_width / sample_count (formulas.hpp).
+// samples (visibility only by default, sampling_settings::adaptive_query) → filter → filtered visibility
+// (and the shaded result). Every stage is also public on its own: gather_occlusion / gather_visibility
+// (gather.hpp), slopes (occlusion_stats.hpp), spread_slopes and filter_visibility (filter.hpp),
+// filter_width / sample_count (formulas.hpp).
 
 #include <algorithm>
 #include <chrono>
@@ -39,7 +40,7 @@ struct frame_outputs {
 template <class T = float>
 struct frame_workspace {
     image<occlusion_stats<T>> stats;         ///< merged statistics of all passes
-    image<slope_pair<T>> slopes;             ///< slopes after spreading and the adaptive pass
+    image<slope_pair<T>> slopes;             ///< slopes after spreading (and the adaptive pass, shadow_query::distances)
     image<slope_pair<T>> slope_scratch;
     image<T> filter_width;                   ///< β in world units (0 = not filtered)
     image<std::uint32_t> adaptive_samples;   ///< samples added by the adaptive pass
@@ -143,14 +144,20 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
                     ws.adaptive_samples(x, y) = target - ss.initial_samples;
                 }
         });
-        report.adaptive_rays = gather_occlusion(gb, light, tracer, ss, 1, 0, ws.stats.view(),
-                                                ws.adaptive_samples.cview(), exec);
-        // Pixels that now have occluders of their own use their own slopes; the others keep the spread ones.
-        exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
-            for (std::size_t y = y0; y < y1; ++y)
-                for (std::size_t x = 0; x < w; ++x)
-                    if (ws.stats(x, y).has_occluder()) ws.slopes(x, y) = slopes(ws.stats(x, y), fs.max_slope);
-        });
+        if (ss.adaptive_query == shadow_query::visibility) {
+            // The paper's pass: visibility only (any-hit rays when the tracer has them); β keeps the first pass's slopes.
+            report.adaptive_rays = gather_visibility(gb, light, tracer, ss, 1, 0, ws.stats.view(),
+                                                     ws.adaptive_samples.cview(), exec);
+        } else {
+            report.adaptive_rays = gather_occlusion(gb, light, tracer, ss, 1, 0, ws.stats.view(),
+                                                    ws.adaptive_samples.cview(), exec);
+            // Pixels that now have occluders of their own use their own slopes; the others keep the spread ones.
+            exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+                for (std::size_t y = y0; y < y1; ++y)
+                    for (std::size_t x = 0; x < w; ++x)
+                        if (ws.stats(x, y).has_occluder()) ws.slopes(x, y) = slopes(ws.stats(x, y), fs.max_slope);
+            });
+        }
         report.adaptive_ms = detail::ms_since(t0);
     }
     if (!progress(0.8)) return report.cancelled = true, report;

@@ -34,11 +34,23 @@ struct formula_settings {
     T max_slope = T(1e6);                     ///< guard: slopes are capped here (d2 ≥ d1/(1+max_slope)); > 0
 };
 
+/// What the adaptive pass asks the tracer for each of its samples (the initial pass always asks for distances).
+enum class shadow_query {
+    /// "Occluded or not": the tracer's `occluded(segment)` when it has one (an any-hit ray, the cheapest
+    /// query), else its normal query with the distances ignored. Adaptive samples count in visibility only;
+    /// slopes, hence β, come from the initial pass (and spreading) alone, as in the paper (Mehta et al. §5).
+    visibility,
+    /// Nearest and farthest occluder, as in the initial pass: adaptive samples also feed d2min/d2max, and
+    /// pixels with occluders recompute their slopes from all their samples (DEVIATIONS.md row 11).
+    distances,
+};
+
 /// How many shadow samples each pixel gets and how they are drawn.
 struct sampling_settings {
     std::uint32_t initial_samples = 9;     ///< samples per pixel in the first pass; [1, 4096], paper 9
     std::uint32_t max_samples = 100;       ///< cap on a pixel's total (initial + adaptive); ≥ initial_samples
     bool adaptive = true;                  ///< run the adaptive pass (n from the formulas, capped)
+    shadow_query adaptive_query = shadow_query::visibility;  ///< what the adaptive pass traces (see shadow_query)
     sample_pattern pattern = sample_pattern::stratified;  ///< point set on the light
     light_weighting weighting = light_weighting::uniform;  ///< how samples are averaged
     std::uint32_t frame_seed = 0;          ///< decorrelates frames; same seed ⇒ same image
@@ -128,6 +140,10 @@ inline void validate(const sampling_settings& s, const char* function = "validat
             "must be in [1, 4096] (got " + std::to_string(s.initial_samples) + ")");
     require(s.max_samples >= s.initial_samples && s.max_samples <= 1u << 20, function, "settings.sampling.max_samples",
             "must be in [initial_samples, 2^20] (got " + std::to_string(s.max_samples) + ")");
+    require(s.adaptive_query == shadow_query::visibility || s.adaptive_query == shadow_query::distances, function,
+            "settings.sampling.adaptive_query",
+            "must be shadow_query::visibility or shadow_query::distances (got " +
+                std::to_string(static_cast<int>(s.adaptive_query)) + ")");
     require(std::isfinite(s.origin_offset), function, "settings.sampling.origin_offset",
             "must be finite (got " + std::to_string(s.origin_offset) + ")");
 }

@@ -32,6 +32,14 @@
 //
 // A tracer that can only answer "occluded or not" is adapted by `bisecting_tracer`, which finds the
 // nearest occluder by bisection with a few extra boolean rays per occluded sample.
+//
+// Optionally a tracer may also have
+//
+//   bool occluded(const shadow_segment<T>&) const;                  // any hit in (0, length)?
+//
+// which the adaptive pass uses when it only needs visibility (sampling_settings::adaptive_query =
+// shadow_query::visibility, the default): an any-hit ray is much cheaper than finding both span ends.
+// Without it, that pass uses the query above and ignores the distances.
 
 #include <concepts>
 #include <cmath>
@@ -120,6 +128,13 @@ struct bisecting_tracer {
         const T t = T(0.5) * (lo + hi);
         return {t, t};
     }
+
+    /// The wrapped tracer's own answer: visibility-only queries (shadow_query::visibility) cost one ray.
+    template <class T>
+        requires boolean_tracer<Tracer, T>
+    [[nodiscard]] bool occluded(const shadow_segment<T>& segment) const {
+        return static_cast<bool>(tracer->occluded(segment));
+    }
 };
 
 template <class Tracer>
@@ -168,6 +183,29 @@ void trace_all(const Tracer& tracer, std::span<const shadow_segment<T>> segments
         for (std::size_t i = 0; i < segments.size(); ++i) out[i] = sanitize<T>(out[i], segments[i].length);
     } else {
         for (std::size_t i = 0; i < segments.size(); ++i) out[i] = trace_one<T>(tracer, segments[i]);
+    }
+}
+
+/// What a visibility-only query found along one segment.
+enum class visibility_hit : unsigned char { visible, blocked, failed };
+
+/// Traces a pixel's segments for visibility only: the tracer's `occluded` when it has one (it must follow
+/// the contract's 0 < t < length itself; a bool cannot be sanitised), else its distance query with the
+/// distances dropped after sanitising (a NaN still fails the sample). `hits` is scratch of the same size.
+template <class T, class Tracer>
+    requires occlusion_tracer<Tracer, T>
+void trace_visibility(const Tracer& tracer, std::span<const shadow_segment<T>> segments,
+                      std::span<occluder_span<T>> hits, std::span<visibility_hit> out) {
+    if constexpr (boolean_tracer<Tracer, T>) {
+        (void)hits;
+        for (std::size_t i = 0; i < segments.size(); ++i)
+            out[i] = tracer.occluded(segments[i]) ? visibility_hit::blocked : visibility_hit::visible;
+    } else {
+        trace_all<T>(tracer, segments, hits);
+        for (std::size_t i = 0; i < segments.size(); ++i)
+            out[i] = std::isnan(hits[i].nearest) || std::isnan(hits[i].farthest) ? visibility_hit::failed
+                     : hits[i].hit()                                                ? visibility_hit::blocked
+                                                                                    : visibility_hit::visible;
     }
 }
 
