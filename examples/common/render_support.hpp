@@ -42,6 +42,8 @@ void parse_size(const std::string& v, std::size_t& width, std::size_t& height);
 struct first_hit_tracer {
     const bvh* tracer;
     [[nodiscard]] float nearest_occluder(const aaf::shadow_segment<float>& s) const noexcept { return tracer->nearest_occluder(s); }
+    // The adaptive pass only asks "occluded?" (shadow_query::visibility): give it the any-hit query too.
+    [[nodiscard]] bool occluded(const aaf::shadow_segment<float>& s) const noexcept { return tracer->occluded(s); }
 };
 
 /// The BVH's any-hit query (stops at the first triangle found): all unfiltered Monte Carlo needs. It reports
