@@ -11,6 +11,7 @@
 #include <memory>
 #include <numbers>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -160,6 +161,14 @@ void copy_row(const_image_view<glm::vec<3, T>> view, std::size_t y, T* AAF_DETAI
     }
 }
 
+/// Row `y` of `view` as a plain array: in place when the row is packed, else copied to `scratch`.
+template <class U>
+[[nodiscard]] const U* row_of(const_image_view<U> view, std::size_t y, U* scratch) noexcept {
+    if (view.packed_rows()) return &view(0, y);
+    copy_row(view, y, scratch);
+    return scratch;
+}
+
 /// Writes `in` to row `y` of `view`; a plain array loop (vectorised) when the row is packed.
 template <class U>
 void store_row(const U* AAF_DETAIL_RESTRICT in, image_view<U> view, std::size_t y) noexcept {
@@ -195,9 +204,14 @@ struct tap_rows {
     std::unique_ptr<T[]> v, nx, ny, nz, px, py, pz;
     std::unique_ptr<std::uint32_t[]> id;
 
+    std::size_t capacity = 0;
+
+    /// Makes room for `rows` rows of `row_stride` elements; reallocates only to grow.
     void resize(std::size_t rows, std::size_t row_stride) {
         stride = row_stride;
         const std::size_t n = rows * row_stride;
+        if (n <= capacity) return;
+        capacity = n;
         v.reset(new T[n]);
         if constexpr (normals) nx.reset(new T[n]), ny.reset(new T[n]), nz.reset(new T[n]);
         if constexpr (ids) id.reset(new std::uint32_t[n]);
@@ -359,17 +373,16 @@ void light_plane_taps(std::size_t n, T k, T cos_threshold, const glm::vec<3, T>&
     }
 }
 
-/// Kernel radii (as T, 0 = copy) of row `y`'s centres into `st.full_radius`, with their β and d in
-/// `st.beta`, `st.pixel_size`. Vectorised form of kernel_radius, the same numbers.
+/// Kernel radii (as T, 0 = copy) of row `y`'s centres into `st.full_radius`; returns the row's β and d
+/// (in place when packed, else copied to `st.beta`, `st.pixel_size`). Vectorised form of kernel_radius,
+/// the same numbers.
 template <class T>
-void row_radii(lane_state<T>& st, const_image_view<T> beta, const_image_view<T> pixel_size, const filter_settings<T>& s,
-               std::size_t y) noexcept {
+std::pair<const T*, const T*> row_radii(lane_state<T>& st, const_image_view<T> beta, const_image_view<T> pixel_size,
+                                        const filter_settings<T>& s, std::size_t y) noexcept {
     const std::size_t w = beta.width();
-    T* AAF_DETAIL_RESTRICT bw = st.beta.data();
-    T* AAF_DETAIL_RESTRICT dw = st.pixel_size.data();
+    const T* AAF_DETAIL_RESTRICT bw = row_of(beta, y, st.beta.data());
+    const T* AAF_DETAIL_RESTRICT dw = row_of(pixel_size, y, st.pixel_size.data());
     T* AAF_DETAIL_RESTRICT radius = st.full_radius.data();
-    copy_row(beta, y, bw);
-    copy_row(pixel_size, y, dw);
     const T truncation = s.truncation, max_radius = static_cast<T>(s.max_radius);
     for (std::size_t x = 0; x < w; ++x) {
         const T b = bw[x], d = dw[x], beta_px = b / d;
@@ -380,6 +393,7 @@ void row_radii(lane_state<T>& st, const_image_view<T> beta, const_image_view<T> 
         const T whole = static_cast<T>(static_cast<std::int32_t>(has ? capped : T(0)));  // in [0, 1024]
         radius[x] = has ? (whole < capped ? whole + T(1) : whole) : T(0);
     }
+    return {bw, dw};
 }
 
 /// The lanes' initial state for a row of centres `cv` (and their positions, light plane): a lane with taps
@@ -406,6 +420,16 @@ void setup_lanes(std::size_t w, const T* AAF_DETAIL_RESTRICT cv, const T* AAF_DE
         wsum[x] = T(1);
         wk[x] = T(1);
     }
+}
+
+/// Whether a centre of the row with a kernel is non-finite (those take the scalar rule; rare).
+template <class T>
+[[nodiscard]] bool any_non_finite_centre(std::size_t w, const T* AAF_DETAIL_RESTRICT cv,
+                                         const T* AAF_DETAIL_RESTRICT full_radius) noexcept {
+    constexpr T max_finite = std::numeric_limits<T>::max();
+    bool any = false;
+    for (std::size_t x = 0; x < w; ++x) any = any | ((full_radius[x] > T(0)) & !(std::abs(cv[x]) <= max_finite));
+    return any;
 }
 
 /// Σw·v / Σw for lanes with taps (or the centre when the weights sum to 0), the centre for the others.
@@ -435,96 +459,103 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
 
     lane_state<T> st(w);
     tap_rows<T, G, Space> rows;
-    const std::size_t margin = s.max_radius + filter_distances_per_sweep;  // horizontal: NaN elements left and right of the row
-    std::size_t first_row = 0;                // vertical: image row held in buffer row 0
-    std::size_t nan_row = 0;                  // vertical: the buffer row of NaN values standing for rows outside the image
+    const std::size_t margin =
+        s.max_radius + filter_distances_per_sweep;  // horizontal: NaN elements left and right of the row
+    std::size_t first_row = 0;                      // vertical: image row held in buffer row 0
+    std::size_t nan_row = 0;  // vertical: the buffer row of NaN values standing for rows outside the image
     if constexpr (horizontal) {
         rows.resize(1, w + 2 * margin);
         rows.fill(0, 0, margin);  // `load` writes only [margin, margin + w)
         rows.fill(0, margin + w, w + 2 * margin);
-    } else {
-        std::size_t reach = 0;  // the largest radius among the task's centres (from the horizontal pass)
-        for (std::size_t y = y_begin; y < y_end; ++y) reach = std::max(reach, row_reach[y]);
-        const std::size_t r = reach + filter_distances_per_sweep;  // margin for the last group
-        first_row = y_begin > r ? y_begin - r : 0;
-        const std::size_t last_row = std::min(h, y_end + r);
-        nan_row = last_row - first_row;
-        rows.resize(nan_row + 1, w);
-        rows.fill(nan_row, 0, w);
-        for (std::size_t y = first_row; y < last_row; ++y) rows.load(y - first_row, 0, src, g, y);
     }
     std::vector<unsigned char> lok, rok;  // light plane: the lanes' accepted taps
     if constexpr (light_plane) lok.resize(filter_lane_block), rok.resize(filter_lane_block);
 
-    for (std::size_t y = y_begin; y < y_end; ++y) {
-        if constexpr (horizontal) rows.load(0, margin, src, g, y);  // the margins keep their NaN values
-        const std::size_t centre_at = horizontal ? margin : (y - first_row) * w;  // the centres in `rows`
-        const auto C = rows.at(centre_at);
-        // Set up the lanes. A lane with taps has a finite centre (and position); the others get radius 0.
-        row_radii(st, beta, pixel_size, s, y);
-        if constexpr (horizontal) row_reach[y] = largest_radius(st.full_radius.data(), w);
-        setup_lanes<light_plane>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), st.beta.data(), st.pixel_size.data(),
-                                 st.radius.data(), st.a.data(), st.wk.data(), st.sum.data(), st.wsum.data(),
-                                 st.inv_two_beta2.data());
-        if constexpr (!light_plane)
-            for (std::size_t x = 0; x < w; ++x)
-                if (st.radius[x] > T(0)) {
-                    // w_k = exp(-k² a) by the recurrence w_k = w_{k-1}·m_k, m_k = exp(-(2k-1)a).
-                    st.mk[x] = std::exp(-st.a[x]);
-                    st.q[x] = st.mk[x] * st.mk[x];
-                }
-        for (std::size_t x0 = 0; x0 < w; x0 += filter_lane_block) {
-            const std::size_t n = std::min(filter_lane_block, w - x0);
-            const std::size_t steps = largest_radius(&st.radius[x0], n);
-            const auto Cb = rows.at(centre_at + x0);
-            using cursor = typename tap_rows<T, G, Space>::cursor;
-            const auto side = [&](std::size_t k, bool plus) -> cursor {
-                if constexpr (horizontal) return rows.at(plus ? centre_at + x0 + k : centre_at + x0 - k);
-                if (plus) return rows.at((y + k < h ? y + k - first_row : nan_row) * w + x0);
-                return rows.at((k <= y ? y - k - first_row : nan_row) * w + x0);
-            };
-            if constexpr (light_plane) {
-                for (std::size_t k = 1; k <= steps; ++k) {
-                    const cursor L = side(k, false), R = side(k, true);
-                    using Cur = typename tap_rows<T, guides<>, offset_space::light_plane>::cursor;
-                    light_plane_taps<T, G::has_normals, G::has_ids>(
-                        n, static_cast<T>(k), cos_threshold, light_normal, &st.radius[x0], &st.inv_two_beta2[x0],
-                        &st.sum[x0], &st.wsum[x0], Cb.nx, Cb.ny, Cb.nz, Cb.id, Cb.px, Cb.py, Cb.pz,
-                        Cur{L.v, L.nx, L.ny, L.nz, L.id, L.px, L.py, L.pz},
-                        Cur{R.v, R.nx, R.ny, R.nz, R.id, R.px, R.py, R.pz}, lok.data(), rok.data());
-                }
-            } else {
-                // Distances in groups; a group's last distances may pass `steps`, which every lane's radius
-                // masks (the buffers have that many elements or rows of margin).
-                constexpr std::size_t K = filter_distances_per_sweep;
-                for (std::size_t k = 1; k <= steps; k += K) {
-                    std::array<cursor, K> left, right;
-                    for (std::size_t j = 0; j < K; ++j) left[j] = side(k + j, false), right[j] = side(k + j, true);
-                    image_taps<K, T, G::has_normals, G::has_ids>(n, k, cos_threshold, &st.radius[x0], &st.wk[x0],
-                                                                 &st.mk[x0], &st.q[x0], &st.sum[x0], &st.wsum[x0], Cb,
-                                                                 left, right);
-                }
-            }
+    // Blocks of filter_rows_per_task rows, whatever the executor hands out, so that the vertical pass's
+    // copy of the rows within reach stays cache-sized (and its buffer is reused).
+    for (std::size_t block = y_begin; block < y_end; block += filter_rows_per_task) {
+        const std::size_t block_end = std::min(block + filter_rows_per_task, y_end);
+        if constexpr (!horizontal) {
+            std::size_t reach = 0;  // the largest radius among the block's centres (from the horizontal pass)
+            for (std::size_t y = block; y < block_end; ++y) reach = std::max(reach, row_reach[y]);
+            const std::size_t r = reach + filter_distances_per_sweep;  // margin for the last group
+            first_row = block > r ? block - r : 0;
+            const std::size_t last_row = std::min(h, block_end + r);
+            nan_row = last_row - first_row;
+            rows.resize(nan_row + 1, w);
+            rows.fill(nan_row, 0, w);
+            for (std::size_t y = first_row; y < last_row; ++y) rows.load(y - first_row, 0, src, g, y);
         }
-        normalise_lanes(w, C.v, st.radius.data(), st.sum.data(), st.wsum.data(), st.out.data());
-        store_row(st.out.data(), dst, y);
-        for (std::size_t x = 0; x < w; ++x) {
-            const T centre = C.v[x];
-            if (!(st.full_radius[x] > T(0)) || std::isfinite(centre)) continue;
-            // A non-finite centre with a kernel (rare): the scalar rule.
-            glm::vec<3, T> p{0};
-            T inv_two_beta2 = T(0);
-            if constexpr (light_plane) {
-                p = g.positions(x, y);
-                if (!std::isfinite(p.x + p.y + p.z)) continue;  // no position: copied
-                inv_two_beta2 = st.inv_two_beta2[x];
+        for (std::size_t y = block; y < block_end; ++y) {
+            if constexpr (horizontal) rows.load(0, margin, src, g, y);  // the margins keep their NaN values
+            const std::size_t centre_at = horizontal ? margin : (y - first_row) * w;  // the centres in `rows`
+            const auto C = rows.at(centre_at);
+            // Set up the lanes. A lane with taps has a finite centre (and position); the others get radius 0.
+            const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
+            if constexpr (horizontal) row_reach[y] = largest_radius(st.full_radius.data(), w);
+            setup_lanes<light_plane>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, st.radius.data(), st.a.data(), st.wk.data(), st.sum.data(),
+                                     st.wsum.data(), st.inv_two_beta2.data());
+            if constexpr (!light_plane)
+                for (std::size_t x = 0; x < w; ++x)
+                    if (st.radius[x] > T(0)) {
+                        // w_k = exp(-k² a) by the recurrence w_k = w_{k-1}·m_k, m_k = exp(-(2k-1)a).
+                        st.mk[x] = std::exp(-st.a[x]);
+                        st.q[x] = st.mk[x] * st.mk[x];
+                    }
+            for (std::size_t x0 = 0; x0 < w; x0 += filter_lane_block) {
+                const std::size_t n = std::min(filter_lane_block, w - x0);
+                const std::size_t steps = largest_radius(&st.radius[x0], n);
+                const auto Cb = rows.at(centre_at + x0);
+                using cursor = typename tap_rows<T, G, Space>::cursor;
+                const auto side = [&](std::size_t k, bool plus) -> cursor {
+                    if constexpr (horizontal) return rows.at(plus ? centre_at + x0 + k : centre_at + x0 - k);
+                    if (plus) return rows.at((y + k < h ? y + k - first_row : nan_row) * w + x0);
+                    return rows.at((k <= y ? y - k - first_row : nan_row) * w + x0);
+                };
+                if constexpr (light_plane) {
+                    for (std::size_t k = 1; k <= steps; ++k) {
+                        const cursor L = side(k, false), R = side(k, true);
+                        using Cur = typename tap_rows<T, guides<>, offset_space::light_plane>::cursor;
+                        light_plane_taps<T, G::has_normals, G::has_ids>(
+                            n, static_cast<T>(k), cos_threshold, light_normal, &st.radius[x0], &st.inv_two_beta2[x0],
+                            &st.sum[x0], &st.wsum[x0], Cb.nx, Cb.ny, Cb.nz, Cb.id, Cb.px, Cb.py, Cb.pz,
+                            Cur{L.v, L.nx, L.ny, L.nz, L.id, L.px, L.py, L.pz},
+                            Cur{R.v, R.nx, R.ny, R.nz, R.id, R.px, R.py, R.pz}, lok.data(), rok.data());
+                    }
+                } else {
+                    // Distances in groups; a group's last distances may pass `steps`, which every lane's radius
+                    // masks (the buffers have that many elements or rows of margin).
+                    constexpr std::size_t K = filter_distances_per_sweep;
+                    for (std::size_t k = 1; k <= steps; k += K) {
+                        std::array<cursor, K> left, right;
+                        for (std::size_t j = 0; j < K; ++j) left[j] = side(k + j, false), right[j] = side(k + j, true);
+                        image_taps<K, T, G::has_normals, G::has_ids>(n, k, cos_threshold, &st.radius[x0], &st.wk[x0],
+                                                                     &st.mk[x0], &st.q[x0], &st.sum[x0], &st.wsum[x0],
+                                                                     Cb, left, right);
+                    }
+                }
             }
-            const std::size_t pos = horizontal ? x : y, extent = horizontal ? w : h;
-            const T beta_px = st.beta[x] / st.pixel_size[x];
-            dst(x, y) = non_finite_centre_average<Dir, Space>(
-                src, g, guide_center<T, G>(g, x, y), p, light_normal, x, y, pos, extent,
-                static_cast<std::size_t>(st.full_radius[x]), T(1) / (T(2) * beta_px * beta_px), inv_two_beta2,
-                cos_threshold, centre);
+            normalise_lanes(w, C.v, st.radius.data(), st.sum.data(), st.wsum.data(), st.out.data());
+            store_row(st.out.data(), dst, y);
+            if (!any_non_finite_centre(w, C.v, st.full_radius.data())) continue;
+            for (std::size_t x = 0; x < w; ++x) {
+                const T centre = C.v[x];
+                if (!(st.full_radius[x] > T(0)) || std::isfinite(centre)) continue;
+                // A non-finite centre with a kernel (rare): the scalar rule.
+                glm::vec<3, T> p{0};
+                T inv_two_beta2 = T(0);
+                if constexpr (light_plane) {
+                    p = g.positions(x, y);
+                    if (!std::isfinite(p.x + p.y + p.z)) continue;  // no position: copied
+                    inv_two_beta2 = st.inv_two_beta2[x];
+                }
+                const std::size_t pos = horizontal ? x : y, extent = horizontal ? w : h;
+                const T beta_px = beta(x, y) / pixel_size(x, y);
+                dst(x, y) = non_finite_centre_average<Dir, Space>(
+                    src, g, guide_center<T, G>(g, x, y), p, light_normal, x, y, pos, extent,
+                    static_cast<std::size_t>(st.full_radius[x]), T(1) / (T(2) * beta_px * beta_px), inv_two_beta2,
+                    cos_threshold, centre);
+            }
         }
     }
 }
