@@ -279,7 +279,7 @@ TEST_CASE("Every scenes/*.json loads and frames a soft shadow", "[scene]") {
         if (entry.path().extension() != ".json") continue;
         const std::string stem = entry.path().stem().string();
         found.insert(stem);
-        if (stem == "car") continue;  // below
+        if (stem == "car" || stem == "armadillo") continue;  // meshes outside the repository: below
         INFO("scene file " << entry.path());
         scene s;
         REQUIRE_NOTHROW(s = aaf_examples::load_scene_file(entry.path()));
