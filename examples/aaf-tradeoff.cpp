@@ -58,7 +58,8 @@ const char* const help_text =
     "                        OUT/tradeoff.json (after a change to their layout)\n"
     "  --overview FILE DIR... render nothing: write a markdown table comparing the scenes whose\n"
     "                        DIR/tradeoff.json exist (equal-error ratios at the paper's mu = 2, the best\n"
-    "                        ratios of any aaf variant, the presets) to FILE; scripts/results uses it\n"
+    "                        ratios of any aaf variant) and the presets on each, to FILE; scripts/results\n"
+    "                        uses it\n"
     "  --help                this text\n"
     "Large optional meshes (the sports car) are found through the AAF_SCENES_DIR environment variable.\n";
 
@@ -184,6 +185,24 @@ void write_overview(const fs::path& file, const std::vector<fs::path>& dirs) {
             md += "- | - | - | - | - | - | ";
         md += (best_rays ? ratio(*best_rays, "rays_ratio") + " (" + knob(*best_rays) + ")" : std::string("-")) + " | " +
               (best_time ? ratio(*best_time, "time_ratio") + " (" + knob(*best_time) + ")" : std::string("-")) + " |\n";
+    }
+    // The presets on every scene: what each named setting costs and leaves.
+    md += "\n| scene | preset | rays/px | time ms | RMSE | SSIM | MC rays/px for that RMSE | rays ratio | time ratio |\n"
+          "|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+    for (const fs::path& dir : dirs) {
+        const nlohmann::json r = read_json(dir / "tradeoff.json", "--overview");
+        for (const nlohmann::json& e : r.at("equal_error")) {
+            const std::string method = e.at("method").get<std::string>();
+            if (method.rfind("preset_", 0) != 0) continue;
+            double ssim = 0;
+            for (const nlohmann::json& m : r.at("methods"))
+                if (m.at("name") == method && !m.at("points").empty()) ssim = m.at("points")[0].value("ssim", 0.0);
+            md += "| " + r.at("scene").get<std::string>() + " | " + method.substr(7) + " | " +
+                  format("%.1f", e.at("rays_per_pixel").get<double>()) + " | " + format("%.0f", e.at("time_ms").get<double>()) +
+                  " | " + format("%.4f", e.at("rmse").get<double>()) + " | " + format("%.4f", ssim) + " | " +
+                  format("%.0f", e.at("baseline_rays_per_pixel").get<double>()) + " | " + ratio(e, "rays_ratio") + " | " +
+                  ratio(e, "time_ratio") + " |\n";
+        }
     }
     const fs::path tmp = file.string() + ".tmp";
     {
