@@ -83,6 +83,7 @@ const char* const help_text =
 
 options parse(int argc, char** argv) {
     options o;
+    const aaf_examples::shared_options shared{o.scene, o.scenes_dir, o.out, o.cache, o.width, o.height, o.seed};
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         const auto value = [&]() -> std::string {
@@ -92,14 +93,7 @@ options parse(int argc, char** argv) {
         if (a == "--help" || a == "-h") {
             std::fputs(help_text, stdout);
             std::exit(0);
-        } else if (a == "--scene") o.scene = value();
-        else if (a == "--scenes-dir") o.scenes_dir = value();
-        else if (a == "--out") o.out = value();
-        else if (a == "--cache") o.cache = value();
-        else if (a == "--size") {
-            std::size_t width = 0, height = 0;
-            aaf_examples::parse_size(value(), width, height);
-            o.width = width, o.height = height;
+        } else if (aaf_examples::parse_shared_option(a, value, shared)) {
         } else if (a == "--reference-spp") o.reference_spp = parse_count(a, value(), 1, 1u << 20);
         else if (a == "--no-reference") o.reference = false;
         else if (a == "--threads") o.threads = parse_count(a, value(), 0, 1024);
@@ -123,7 +117,6 @@ options parse(int argc, char** argv) {
             else if (v == "gaussian") o.weighting = aaf::light_weighting::gaussian;
             else throw usage_error("--weighting must be uniform or gaussian (got '" + v + "')");
         }
-        else if (a == "--seed") o.seed = parse_count(a, value(), 0, 0xffffffffu);
         else if (a == "--scale") {
             const std::string v = value();
             char* end = nullptr;

@@ -89,6 +89,7 @@ options parse(int argc, char** argv) {
     options o;
     aaf_examples::tradeoff::config& c = o.config;
     c.scenes_dir = fs::path(__FILE__).parent_path().parent_path() / "scenes";
+    const aaf_examples::shared_options shared{c.scene, c.scenes_dir, o.out, c.cache, c.width, c.height, c.seed};
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         const auto value = [&]() -> std::string {
@@ -98,16 +99,8 @@ options parse(int argc, char** argv) {
         if (a == "--help" || a == "-h") {
             std::fputs(help_text, stdout);
             std::exit(0);
-        } else if (a == "--scene") c.scene = value();
-        else if (a == "--scenes-dir") c.scenes_dir = value();
-        else if (a == "--out") o.out = value();
-        else if (a == "--cache") c.cache = value();
-        else if (a == "--size") {
-            std::size_t w = 0, h = 0;
-            aaf_examples::parse_size(value(), w, h);
-            c.width = w, c.height = h;
+        } else if (aaf_examples::parse_shared_option(a, value, shared)) {
         } else if (a == "--threads") c.threads = parse_count(a, value(), 0, 1024);
-        else if (a == "--seed") c.seed = parse_count(a, value(), 0, 0xffffffffu);
         else if (a == "--reference-spp") c.reference_spp = parse_count(a, value(), 2, 1u << 20);
         else if (a == "--repeat") c.repeat = parse_count(a, value(), 1, 1000);
         else if (a == "--max-mc-spp") c.max_mc_spp = parse_count(a, value(), 1, 1u << 16);

@@ -39,6 +39,20 @@ void parse_size(const std::string& v, std::size_t& width, std::size_t& height) {
     height = parse_count("--size height", v.substr(x + 1), 1, max_image_side);
 }
 
+bool parse_shared_option(const std::string& flag, const std::function<std::string()>& value, const shared_options& o) {
+    if (flag == "--scene") o.scene = value();
+    else if (flag == "--scenes-dir") o.scenes_dir = value();
+    else if (flag == "--out") o.out = value();
+    else if (flag == "--cache") o.cache = value();
+    else if (flag == "--seed") o.seed = parse_count(flag, value(), 0, 0xffffffffu);
+    else if (flag == "--size") {
+        std::size_t width = 0, height = 0;
+        parse_size(value(), width, height);
+        o.width = width, o.height = height;
+    } else return false;
+    return true;
+}
+
 bool gbuffer_images::surface(std::size_t i) const noexcept { return std::isfinite(positions.data()[i].x); }
 
 std::vector<unsigned char> gbuffer_images::surface_mask() const {

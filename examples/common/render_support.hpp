@@ -7,6 +7,8 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -37,6 +39,19 @@ struct usage_error : std::runtime_error {
 [[nodiscard]] std::uint32_t parse_count(const std::string& flag, const std::string& v, std::uint32_t lo, std::uint32_t hi);
 /// "WxH" with each side in [1, max_image_side], else usage_error naming --size.
 void parse_size(const std::string& v, std::size_t& width, std::size_t& height);
+
+/// Where the options both tools take (--scene, --scenes-dir, --out, --cache, --size, --seed) are stored.
+struct shared_options {
+    std::string& scene;
+    std::filesystem::path& scenes_dir;
+    std::filesystem::path& out;
+    std::filesystem::path& cache;
+    std::optional<std::size_t>& width;
+    std::optional<std::size_t>& height;
+    std::uint32_t& seed;
+};
+/// If `flag` is one of the shared options, stores its value (read with `value()`) and returns true.
+bool parse_shared_option(const std::string& flag, const std::function<std::string()>& value, const shared_options& o);
 
 /// The BVH with only its nearest occluder visible: the "first hit" statistics of FORMULAS.md §1.3.
 struct first_hit_tracer {
