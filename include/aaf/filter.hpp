@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <numbers>
 #include <type_traits>
 #include <utility>
@@ -284,6 +285,43 @@ struct lane_state {
           inv_two_beta2(w), out(w) {}
 };
 
+/// What a pass works in, kept from task to task and from the horizontal to the vertical pass of one
+/// filter_visibility call: allocated (and its pages first touched) once per call and thread, not per task.
+template <class T, class G, offset_space Space>
+struct pass_workspace {
+    lane_state<T> st;
+    tap_rows<T, G, Space> rows;
+    std::vector<unsigned char> lok, rok;  // light plane: the lanes' accepted taps
+
+    explicit pass_workspace(std::size_t w) : st(w), lok(filter_lane_block), rok(filter_lane_block) {}
+};
+
+/// The workspaces of one call, each lent to one task at a time (as many exist as tasks ever ran at once).
+template <class W>
+class workspace_pool {
+public:
+    explicit workspace_pool(std::size_t width) : width_(width) {}
+
+    /// Calls f(workspace) with a free workspace (a new one if none is free).
+    template <class F>
+    void lend(F&& f) {
+        std::unique_ptr<W> ws;
+        {
+            const std::lock_guard lock(mutex_);
+            if (!free_.empty()) ws = std::move(free_.back()), free_.pop_back();
+        }
+        if (!ws) ws = std::make_unique<W>(width_);
+        f(*ws);
+        const std::lock_guard lock(mutex_);
+        free_.push_back(std::move(ws));
+    }
+
+private:
+    std::size_t width_;
+    std::mutex mutex_;
+    std::vector<std::unique_ptr<W>> free_;
+};
+
 /// Taps at distances k, k+1, …, k+K−1 on both sides of lanes [0, n) in image space: for each distance,
 /// advances the weight recurrence, then adds the −k neighbour and the +k neighbour when accepted. K > 1
 /// loads and stores each lane's state once per K distances (the lanes' order of operations is unchanged).
@@ -444,21 +482,24 @@ void normalise_lanes(std::size_t w, const T* AAF_DETAIL_RESTRICT cv, const T* AA
 /// normalised by the weight sum. A centre with β ≤ 0 (or NaN) is copied; a centre whose neighbours are all
 /// rejected keeps its value; a non-finite centre gets its accepted finite neighbours' average
 /// (non_finite_centre_average, scalar: it is rare).
-/// Allocates per call (one call per task of rows): the lanes' state for one row and structure-of-arrays
+/// Works in `ws` (reused by the tasks of both passes): the lanes' state for one row and structure-of-arrays
 /// copies of the rows within reach (horizontal: the row with max_radius margins; vertical: the task's
 /// rows plus its largest radius above and below), about 20–40 bytes per copied pixel.
 /// `row_reach[y]` is each row's largest kernel radius: the horizontal pass writes it, the vertical reads it.
+/// `decay` (image space, w·h elements): each pixel's m_1 = exp(−a) (0 without a kernel); the horizontal
+/// pass writes it, the vertical reads it, so each pixel's std::exp runs once, not once per pass.
 template <pass_direction Dir, offset_space Space, class T, class G>
 void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T> beta, const_image_view<T> pixel_size,
                  const G& g, const glm::vec<3, T>& light_normal, const filter_settings<T>& s, std::size_t y_begin,
-                 std::size_t y_end, std::size_t* row_reach) {
+                 std::size_t y_end, std::size_t* row_reach, T* decay, pass_workspace<T, G, Space>& ws) {
     constexpr bool horizontal = Dir == pass_direction::horizontal;
     constexpr bool light_plane = Space == offset_space::light_plane;
     const std::size_t w = src.width(), h = src.height();
     const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
 
-    lane_state<T> st(w);
-    tap_rows<T, G, Space> rows;
+    lane_state<T>& st = ws.st;
+    tap_rows<T, G, Space>& rows = ws.rows;
+    std::vector<unsigned char>&lok = ws.lok, &rok = ws.rok;  // light plane: the lanes' accepted taps
     const std::size_t margin =
         s.max_radius + filter_distances_per_sweep;  // horizontal: NaN elements left and right of the row
     std::size_t first_row = 0;                      // vertical: image row held in buffer row 0
@@ -468,8 +509,6 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
         rows.fill(0, 0, margin);  // `load` writes only [margin, margin + w)
         rows.fill(0, margin + w, w + 2 * margin);
     }
-    std::vector<unsigned char> lok, rok;  // light plane: the lanes' accepted taps
-    if constexpr (light_plane) lok.resize(filter_lane_block), rok.resize(filter_lane_block);
 
     // Blocks of filter_rows_per_task rows, whatever the executor hands out, so that the vertical pass's
     // copy of the rows within reach stays cache-sized (and its buffer is reused).
@@ -495,13 +534,15 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             if constexpr (horizontal) row_reach[y] = largest_radius(st.full_radius.data(), w);
             setup_lanes<light_plane>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, st.radius.data(), st.a.data(), st.wk.data(), st.sum.data(),
                                      st.wsum.data(), st.inv_two_beta2.data());
-            if constexpr (!light_plane)
-                for (std::size_t x = 0; x < w; ++x)
-                    if (st.radius[x] > T(0)) {
-                        // w_k = exp(-k² a) by the recurrence w_k = w_{k-1}·m_k, m_k = exp(-(2k-1)a).
-                        st.mk[x] = std::exp(-st.a[x]);
-                        st.q[x] = st.mk[x] * st.mk[x];
-                    }
+            if constexpr (!light_plane) {
+                // w_k = exp(-k² a) by the recurrence w_k = w_{k-1}·m_k, m_k = exp(-(2k-1)a), q = exp(-2a).
+                T* AAF_DETAIL_RESTRICT m1 = decay + y * w;
+                if constexpr (horizontal)  // every pixel with a kernel (the vertical pass's centres may be finite)
+                    for (std::size_t x = 0; x < w; ++x) m1[x] = st.full_radius[x] > T(0) ? std::exp(-st.a[x]) : T(0);
+                T* AAF_DETAIL_RESTRICT mk = st.mk.data();
+                T* AAF_DETAIL_RESTRICT q = st.q.data();
+                for (std::size_t x = 0; x < w; ++x) mk[x] = m1[x], q[x] = m1[x] * m1[x];
+            }
             for (std::size_t x0 = 0; x0 < w; x0 += filter_lane_block) {
                 const std::size_t n = std::min(filter_lane_block, w - x0);
                 const std::size_t steps = largest_radius(&st.radius[x0], n);
@@ -607,20 +648,24 @@ void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
             const T len = glm::length(light_normal);
             if (!(len > T(0)) || !std::isfinite(len)) detail::throw_invalid(fn, "`light_normal` must be a finite non-zero vector");
             const glm::vec<3, T> n = light_normal / len;
+            detail::workspace_pool<detail::pass_workspace<T, G, offset_space::light_plane>> pool(w);
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                detail::filter_pass<detail::pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach.data());
+                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach.data(), static_cast<T*>(nullptr), ws); });
             });
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                detail::filter_pass<detail::pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach.data());
+                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach.data(), static_cast<T*>(nullptr), ws); });
             });
             return;
         }
     }
+    // Not value-initialised: the horizontal pass writes every element before the vertical pass reads it.
+    const std::unique_ptr<T[]> decay(new T[w * h]);
+    detail::workspace_pool<detail::pass_workspace<T, G, offset_space::image>> pool(w);
     exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-        detail::filter_pass<detail::pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach.data());
+        pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach.data(), decay.get(), ws); });
     });
     exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-        detail::filter_pass<detail::pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach.data());
+        pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach.data(), decay.get(), ws); });
     });
 }
 
