@@ -615,6 +615,9 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
 /// * Non-finite visibility never spreads: such neighbours are skipped; a non-finite centre takes its
 ///   valid neighbours' average (or stays as it was if it has none).
 /// * `output` may alias neither `visibility` nor `scratch`. All views must have the same size.
+/// * Working memory is allocated per call and freed on return (no global or thread-local state): in image
+///   space one T per pixel (each pixel's Gaussian decay, shared by both passes), and per concurrent task
+///   the lane state and row copies of a block of 64 rows.
 /// Throws aaf::invalid_argument (before touching `output`) on mismatched sizes or invalid settings.
 /// T is deduced from `output` only, so mutable views and `image<T>`s convert to the read-only inputs.
 template <class T, class G = guides<>, class Exec = sequential_executor>
