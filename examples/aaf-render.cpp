@@ -336,12 +336,5 @@ int run(const options& opt) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    try {
-        return run(parse(argc, argv));
-    } catch (const std::exception& e) {
-        std::string what = e.what();
-        std::replace(what.begin(), what.end(), '\n', ' ');
-        std::fprintf(stderr, "aaf-render: %s\n", what.c_str());
-        return 1;
-    }
+    return aaf_examples::report_errors("aaf-render", [&] { return run(parse(argc, argv)); });
 }

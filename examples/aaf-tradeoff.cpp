@@ -225,12 +225,5 @@ int run(const options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    try {
-        return run(parse(argc, argv));
-    } catch (const std::exception& e) {
-        std::string what = e.what();
-        std::replace(what.begin(), what.end(), '\n', ' ');
-        std::fprintf(stderr, "aaf-tradeoff: %s\n", what.c_str());
-        return 1;
-    }
+    return aaf_examples::report_errors("aaf-tradeoff", [&] { return run(parse(argc, argv)); });
 }

@@ -4,7 +4,9 @@
 // tracers the BVH offers aaf (all hits, first hit, visibility only), the converged reference and its disk
 // cache, unfiltered Monte Carlo, and image metrics (RMSE, SSIM, largest error) over surface pixels.
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -39,6 +41,20 @@ struct usage_error : std::runtime_error {
 [[nodiscard]] std::uint32_t parse_count(const std::string& flag, const std::string& v, std::uint32_t lo, std::uint32_t hi);
 /// "WxH" with each side in [1, max_image_side], else usage_error naming --size.
 void parse_size(const std::string& v, std::size_t& width, std::size_t& height);
+
+/// Runs `body` (which returns the exit code) and turns any exception into one line on stderr,
+/// "<tool>: <message>", and exit code 1: every error of the examples' command lines looks the same.
+template <class Body>
+int report_errors(const char* tool, Body&& body) {
+    try {
+        return body();
+    } catch (const std::exception& e) {
+        std::string what = e.what();
+        std::replace(what.begin(), what.end(), '\n', ' ');
+        std::fprintf(stderr, "%s: %s\n", tool, what.c_str());
+        return 1;
+    }
+}
 
 /// Where the options both tools take (--scene, --scenes-dir, --out, --cache, --size, --seed) are stored.
 struct shared_options {
