@@ -131,76 +131,14 @@ nlohmann::json read_json(const fs::path& file, const char* flag) {
     }
 }
 
-std::string format(const char* fmt, double v) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, fmt, v);
-    return buf;
-}
-
-/// "12.1x", or ">12.1x" / "<12.1x" when the baseline's sweep did not bracket the point.
-std::string ratio(const nlohmann::json& e, const char* field) {
-    std::string prefix;
-    if (e.value("extrapolated", false)) prefix = e.value("bound", "") == "lower" ? ">" : "<";
-    return prefix + format("%.1fx", e[field].get<double>());
-}
-
-/// One row per scene: what someone choosing settings wants to compare at a glance.
+/// The cross-scene tables from the runs in `dirs`, each JSON read once, written to `file` in one rename.
 void write_overview(const fs::path& file, const std::vector<fs::path>& dirs) {
-    std::string md =
-        "| scene | size | aaf_adaptive μ=2 rays/px | RMSE | MC rays/px for it | rays ratio | time ratio | filter share | "
-        "best rays ratio (method, knob) | best time ratio (method, knob) |\n"
-        "|---|---|---:|---:|---:|---:|---:|---:|---|---|\n";
-    for (const fs::path& dir : dirs) {
-        const nlohmann::json r = read_json(dir / "tradeoff.json", "--overview");
-        const nlohmann::json* at_mu2 = nullptr;
-        const nlohmann::json *best_rays = nullptr, *best_time = nullptr;
-        for (const nlohmann::json& e : r.at("equal_error")) {
-            if (e.at("method") == "aaf_adaptive" && e.at("knob_value").get<double>() == 2.0) at_mu2 = &e;  // the paper's μ
-            if (!best_rays || e.at("rays_ratio").get<double>() > (*best_rays)["rays_ratio"].get<double>()) best_rays = &e;
-            if (!best_time || e.at("time_ratio").get<double>() > (*best_time)["time_ratio"].get<double>()) best_time = &e;
-        }
-        double share = 0;
-        for (const nlohmann::json& m : r.at("methods"))
-            if (m.at("name") == "aaf_adaptive")
-                for (const nlohmann::json& p : m.at("points"))
-                    if (p.value("knob_value", 0.0) == 2.0) share = p.value("filter_share", 0.0);
-        const auto knob = [](const nlohmann::json& e) {  // presets have no knob
-            const std::string method = e.at("method").get<std::string>();
-            return method.rfind("preset_", 0) == 0 ? method : method + ", " + format("%g", e.at("knob_value").get<double>());
-        };
-        md += "| " + r.at("scene").get<std::string>() + " | " + std::to_string(r.at("width").get<int>()) + "x" +
-              std::to_string(r.at("height").get<int>()) + " | ";
-        if (at_mu2)
-            md += format("%.1f", (*at_mu2)["rays_per_pixel"].get<double>()) + " | " + format("%.4f", (*at_mu2)["rmse"].get<double>()) +
-                  " | " + format("%.0f", (*at_mu2)["baseline_rays_per_pixel"].get<double>()) + " | " + ratio(*at_mu2, "rays_ratio") +
-                  " | " + ratio(*at_mu2, "time_ratio") + " | " + format("%.1f %%", 100.0 * share) + " | ";
-        else
-            md += "- | - | - | - | - | - | ";
-        md += (best_rays ? ratio(*best_rays, "rays_ratio") + " (" + knob(*best_rays) + ")" : std::string("-")) + " | " +
-              (best_time ? ratio(*best_time, "time_ratio") + " (" + knob(*best_time) + ")" : std::string("-")) + " |\n";
-    }
-    // The presets on every scene: what each named setting costs and leaves.
-    md += "\n| scene | preset | rays/px | time ms | RMSE | SSIM | MC rays/px for that RMSE | rays ratio | time ratio |\n"
-          "|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
-    for (const fs::path& dir : dirs) {
-        const nlohmann::json r = read_json(dir / "tradeoff.json", "--overview");
-        for (const nlohmann::json& e : r.at("equal_error")) {
-            const std::string method = e.at("method").get<std::string>();
-            if (method.rfind("preset_", 0) != 0) continue;
-            double ssim = 0;
-            for (const nlohmann::json& m : r.at("methods"))
-                if (m.at("name") == method && !m.at("points").empty()) ssim = m.at("points")[0].value("ssim", 0.0);
-            md += "| " + r.at("scene").get<std::string>() + " | " + method.substr(7) + " | " +
-                  format("%.1f", e.at("rays_per_pixel").get<double>()) + " | " + format("%.0f", e.at("time_ms").get<double>()) +
-                  " | " + format("%.4f", e.at("rmse").get<double>()) + " | " + format("%.4f", ssim) + " | " +
-                  format("%.0f", e.at("baseline_rays_per_pixel").get<double>()) + " | " + ratio(e, "rays_ratio") + " | " +
-                  ratio(e, "time_ratio") + " |\n";
-        }
-    }
+    std::vector<nlohmann::json> results;
+    for (const fs::path& dir : dirs) results.push_back(read_json(dir / "tradeoff.json", "--overview"));
     const fs::path tmp = file.string() + ".tmp";
     {
         std::ofstream out(tmp);
-        out << md;
+        out << aaf_examples::tradeoff::overview_markdown(results);
         if (!out) throw std::runtime_error("cannot write " + tmp.string());
     }
     fs::rename(tmp, file);

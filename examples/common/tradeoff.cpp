@@ -155,9 +155,9 @@ json settings_json(const method_def& m, const config& c) {
     j["normal_threshold_degrees"] = fs.filter.normal_threshold_degrees;
     j["stats"] = m.first_hit ? "first_hit" : "all_hits";
     j["tracer"] = m.first_hit ? "BVH nearest occluder" : "BVH nearest and farthest occluder";
-    // first_hit_tracer has no any-hit query, so its visibility-only adaptive rays fall back to nearest_occluder.
-    if (fs.sampling.adaptive && fs.sampling.adaptive_query == aaf::shadow_query::visibility && !m.first_hit)
-        j["tracer"] = "BVH nearest and farthest occluder; any-hit in the adaptive pass";
+    // Both tracers answer occluded(), which a visibility-only adaptive pass asks instead.
+    if (fs.sampling.adaptive && fs.sampling.adaptive_query == aaf::shadow_query::visibility)
+        j["tracer"] = j["tracer"].get<std::string>() + "; any-hit in the adaptive pass";
     j["formula_form"] = fs.formulas.form == aaf::formula_form::paper ? "paper" : "authors";
     j["k"] = fs.formulas.k;
     j["alpha"] = fs.formulas.alpha;
@@ -174,6 +174,10 @@ std::string fmt(const char* f, double v) {
     std::snprintf(buf, sizeof buf, f, v);
     return buf;
 }
+
+/// ">" when the baseline's sweep never got as low as an equal_error entry's RMSE (its cost is a lower
+/// bound), "<" when even its cheapest point is better (an upper bound), "" when interpolated.
+std::string bound_mark(const json& e) { return e["bound"] == "lower" ? ">" : e["bound"] == "upper" ? "<" : ""; }
 
 double median(std::vector<double> v) {
     if (v.empty()) return 0;
@@ -231,16 +235,15 @@ void run_point(const context& ctx, measurement& m) {
     } else {
         const aaf::frame_settings<float> fs = aaf_settings(def, m.knob, ctx.c, ctx.s);
         const gbuffer_images& g = ctx.g;
-        if (def.guides) {
-            const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{g.positions.cview(), g.normals.cview(),
-                                                                               g.pixel_size.cview(), g.ids.cview()};
+        const auto render = [&](const auto& gb) {  // with the method's tracer
             if (def.first_hit) time_aaf(gb, ctx.s, first_hit_tracer{&ctx.tracer}, fs, image, m, ctx.pool);
             else time_aaf(gb, ctx.s, ctx.tracer, fs, image, m, ctx.pool);
-        } else {
-            const aaf::gbuffer<float> gb{g.positions.cview(), g.normals.cview(), g.pixel_size.cview()};
-            if (def.first_hit) time_aaf(gb, ctx.s, first_hit_tracer{&ctx.tracer}, fs, image, m, ctx.pool);
-            else time_aaf(gb, ctx.s, ctx.tracer, fs, image, m, ctx.pool);
-        }
+        };
+        if (def.guides)
+            render(aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>>{g.positions.cview(), g.normals.cview(),
+                                                                             g.pixel_size.cview(), g.ids.cview()});
+        else
+            render(aaf::gbuffer<float>{g.positions.cview(), g.normals.cview(), g.pixel_size.cview()});
         m.extra = {{"initial_samples", fs.sampling.initial_samples}, {"max_samples", fs.sampling.max_samples}, {"mu", fs.formulas.mu}};
     }
     if (first) {
@@ -524,7 +527,7 @@ std::string summary_markdown(const json& r) {
     o << "| method | knob | rays/px | time ms | RMSE | MC rays/px | MC time ms | rays ratio | time ratio |\n";
     o << "|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const json& e : r["equal_error"]) {
-        const std::string b = e["bound"] == "lower" ? "> " : e["bound"] == "upper" ? "< " : "";
+        const std::string mark = bound_mark(e), b = mark.empty() ? mark : mark + " ";
         const std::string method = e["method"].get<std::string>();
         const std::string knob = method.rfind("preset_", 0) == 0 ? std::string("-") : fmt("%g", e["knob_value"].get<double>());
         o << "| " << method << " | " << knob << " | "
@@ -534,6 +537,59 @@ std::string summary_markdown(const json& r) {
           << fmt("%.2f", e["time_ratio"].get<double>()) << "x |\n";
     }
     return o.str();
+}
+
+std::string overview_markdown(const std::vector<json>& results) {
+    const auto ratio = [](const json& e, const char* field) { return bound_mark(e) + fmt("%.1fx", e[field].get<double>()); };
+    const auto knob = [](const json& e) {  // presets have no knob
+        const std::string method = e.at("method").get<std::string>();
+        return method.rfind("preset_", 0) == 0 ? method : method + ", " + fmt("%g", e.at("knob_value").get<double>());
+    };
+    std::string md =
+        "| scene | size | aaf_adaptive μ=2 rays/px | RMSE | MC rays/px for it | rays ratio | time ratio | filter share | "
+        "best rays ratio (method, knob) | best time ratio (method, knob) |\n"
+        "|---|---|---:|---:|---:|---:|---:|---:|---|---|\n";
+    for (const json& r : results) {
+        const json* at_mu2 = nullptr;
+        const json *best_rays = nullptr, *best_time = nullptr;
+        for (const json& e : r.at("equal_error")) {
+            if (e.at("method") == "aaf_adaptive" && e.at("knob_value").get<double>() == 2.0) at_mu2 = &e;  // the paper's μ
+            if (!best_rays || e.at("rays_ratio").get<double>() > (*best_rays)["rays_ratio"].get<double>()) best_rays = &e;
+            if (!best_time || e.at("time_ratio").get<double>() > (*best_time)["time_ratio"].get<double>()) best_time = &e;
+        }
+        double share = 0;
+        for (const json& m : r.at("methods"))
+            if (m.at("name") == "aaf_adaptive")
+                for (const json& p : m.at("points"))
+                    if (p.value("knob_value", 0.0) == 2.0) share = p.value("filter_share", 0.0);
+        md += "| " + r.at("scene").get<std::string>() + " | " + std::to_string(r.at("width").get<int>()) + "x" +
+              std::to_string(r.at("height").get<int>()) + " | ";
+        if (at_mu2)
+            md += fmt("%.1f", (*at_mu2)["rays_per_pixel"].get<double>()) + " | " + fmt("%.4f", (*at_mu2)["rmse"].get<double>()) +
+                  " | " + fmt("%.0f", (*at_mu2)["baseline_rays_per_pixel"].get<double>()) + " | " + ratio(*at_mu2, "rays_ratio") +
+                  " | " + ratio(*at_mu2, "time_ratio") + " | " + fmt("%.1f %%", 100.0 * share) + " | ";
+        else
+            md += "- | - | - | - | - | - | ";
+        md += (best_rays ? ratio(*best_rays, "rays_ratio") + " (" + knob(*best_rays) + ")" : std::string("-")) + " | " +
+              (best_time ? ratio(*best_time, "time_ratio") + " (" + knob(*best_time) + ")" : std::string("-")) + " |\n";
+    }
+    // The presets on every scene: what each named setting costs and leaves.
+    md += "\n| scene | preset | rays/px | time ms | RMSE | SSIM | MC rays/px for that RMSE | rays ratio | time ratio |\n"
+          "|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+    for (const json& r : results)
+        for (const json& e : r.at("equal_error")) {
+            const std::string method = e.at("method").get<std::string>();
+            if (method.rfind("preset_", 0) != 0) continue;
+            double ssim = 0;
+            for (const json& m : r.at("methods"))
+                if (m.at("name") == method && !m.at("points").empty()) ssim = m.at("points")[0].value("ssim", 0.0);
+            md += "| " + r.at("scene").get<std::string>() + " | " + method.substr(7) + " | " +
+                  fmt("%.1f", e.at("rays_per_pixel").get<double>()) + " | " + fmt("%.0f", e.at("time_ms").get<double>()) + " | " +
+                  fmt("%.4f", e.at("rmse").get<double>()) + " | " + fmt("%.4f", ssim) + " | " +
+                  fmt("%.0f", e.at("baseline_rays_per_pixel").get<double>()) + " | " + ratio(e, "rays_ratio") + " | " +
+                  ratio(e, "time_ratio") + " |\n";
+        }
+    return md;
 }
 
 std::string gnuplot_script(const json& r) {

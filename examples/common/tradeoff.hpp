@@ -82,6 +82,11 @@ struct equal_cost {
 /// The markdown summary: one table per method, then the equal-error table.
 [[nodiscard]] std::string summary_markdown(const nlohmann::json& result);
 
+/// The cross-scene tables (scripts/results' docs/results/overview.md) from several runs' tradeoff.json: one
+/// row per scene (equal error at the paper's μ = 2, the best ratios of any aaf variant, the filter's share),
+/// then every preset on every scene.
+[[nodiscard]] std::string overview_markdown(const std::vector<nlohmann::json>& results);
+
 /// A self-contained gnuplot script (inline data blocks) that draws rmse_vs_rays.png and rmse_vs_time.png
 /// in the current directory.
 [[nodiscard]] std::string gnuplot_script(const nlohmann::json& result);
