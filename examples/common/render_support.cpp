@@ -225,7 +225,8 @@ mc_result render_mc(const scene& s, const gbuffer_images& g, const bvh& tracer, 
     aaf::image<aaf::occlusion_stats<float>> stats(w, h);  // allocation outside the timed part, as aaf's workspace
     const auto t0 = clock_type::now();
     stats.fill(aaf::occlusion_stats<float>{});
-    r.rays = aaf::gather_occlusion(gb, s.light, visibility_tracer{&tracer}, ss, p.pass, ss.initial_samples, stats.view(), {}, pool);
+    // Visibility only: the BVH's any-hit query, all unfiltered Monte Carlo needs.
+    r.rays = aaf::gather_visibility(gb, s.light, tracer, ss, p.pass, ss.initial_samples, stats.view(), {}, pool);
     r.rays_ms = ms_since(t0);
     pool.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
         for (std::size_t y = y0; y < y1; ++y)

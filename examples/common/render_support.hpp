@@ -77,16 +77,6 @@ struct first_hit_tracer {
     [[nodiscard]] bool occluded(const aaf::shadow_segment<float>& s) const noexcept { return tracer->occluded(s); }
 };
 
-/// The BVH's any-hit query (stops at the first triangle found): all unfiltered Monte Carlo needs. It reports
-/// an occluded segment as one occluder half-way along it, a distance nothing downstream of MC reads.
-struct visibility_tracer {
-    const bvh* tracer;
-    [[nodiscard]] aaf::occluder_span<float> occluder_span(const aaf::shadow_segment<float>& s) const noexcept {
-        if (!tracer->occluded(s)) return {};
-        return {0.5f * s.length, 0.5f * s.length};
-    }
-};
-
 /// The G-buffer of a pinhole camera, in the layout aaf reads. Sky pixels have NaN position and normal.
 struct gbuffer_images {
     aaf::image<glm::vec3> positions, normals;
