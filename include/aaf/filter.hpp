@@ -191,6 +191,20 @@ template <class T>
     return static_cast<std::size_t>(m);
 }
 
+/// Pointers to one element of every array of a tap_rows (a lane block's neighbours on one side); the
+/// guides a pass does not use stay null.
+template <class T>
+struct tap_cursor {
+    const T* AAF_DETAIL_RESTRICT v;
+    const T* AAF_DETAIL_RESTRICT nx;
+    const T* AAF_DETAIL_RESTRICT ny;
+    const T* AAF_DETAIL_RESTRICT nz;
+    const std::uint32_t* AAF_DETAIL_RESTRICT id;
+    const T* AAF_DETAIL_RESTRICT px;
+    const T* AAF_DETAIL_RESTRICT py;
+    const T* AAF_DETAIL_RESTRICT pz;
+};
+
 /// Structure-of-arrays copies of rows of the pass's input and of the guides it uses, `stride` elements per
 /// row, so that the lanes read contiguous, aligned-type arrays whatever the caller's pixel strides.
 /// Elements that stand for pixels outside the image hold a NaN value (and NaN normals), which every tap
@@ -253,17 +267,8 @@ struct tap_rows {
         if constexpr (positions) copy_row(g.positions, y, &px[o], &py[o], &pz[o]);
     }
 
+    using cursor = tap_cursor<T>;
     /// Pointers to the element `i` of every array (the lanes' neighbours on one side).
-    struct cursor {
-        const T* AAF_DETAIL_RESTRICT v;
-        const T* AAF_DETAIL_RESTRICT nx;
-        const T* AAF_DETAIL_RESTRICT ny;
-        const T* AAF_DETAIL_RESTRICT nz;
-        const std::uint32_t* AAF_DETAIL_RESTRICT id;
-        const T* AAF_DETAIL_RESTRICT px;
-        const T* AAF_DETAIL_RESTRICT py;
-        const T* AAF_DETAIL_RESTRICT pz;
-    };
     [[nodiscard]] cursor at(std::size_t i) const noexcept {
         cursor c{&v[i], nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr};
         if constexpr (normals) c.nx = &nx[i], c.ny = &ny[i], c.nz = &nz[i];
@@ -376,8 +381,7 @@ void light_plane_taps(std::size_t n, T k, T cos_threshold, const glm::vec<3, T>&
                       const T* AAF_DETAIL_RESTRICT cnx, const T* AAF_DETAIL_RESTRICT cny, const T* AAF_DETAIL_RESTRICT cnz,
                       const std::uint32_t* AAF_DETAIL_RESTRICT cid, const T* AAF_DETAIL_RESTRICT cpx,
                       const T* AAF_DETAIL_RESTRICT cpy, const T* AAF_DETAIL_RESTRICT cpz,
-                      typename tap_rows<T, guides<>, offset_space::light_plane>::cursor L,
-                      typename tap_rows<T, guides<>, offset_space::light_plane>::cursor R,
+                      tap_cursor<T> L, tap_cursor<T> R,
                       unsigned char* AAF_DETAIL_RESTRICT lok,
                       unsigned char* AAF_DETAIL_RESTRICT rok) noexcept {
     constexpr T max_finite = std::numeric_limits<T>::max();
@@ -555,13 +559,10 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 };
                 if constexpr (light_plane) {
                     for (std::size_t k = 1; k <= steps; ++k) {
-                        const cursor L = side(k, false), R = side(k, true);
-                        using Cur = typename tap_rows<T, guides<>, offset_space::light_plane>::cursor;
                         light_plane_taps<T, G::has_normals, G::has_ids>(
                             n, static_cast<T>(k), cos_threshold, light_normal, &st.radius[x0], &st.inv_two_beta2[x0],
-                            &st.sum[x0], &st.wsum[x0], Cb.nx, Cb.ny, Cb.nz, Cb.id, Cb.px, Cb.py, Cb.pz,
-                            Cur{L.v, L.nx, L.ny, L.nz, L.id, L.px, L.py, L.pz},
-                            Cur{R.v, R.nx, R.ny, R.nz, R.id, R.px, R.py, R.pz}, lok.data(), rok.data());
+                            &st.sum[x0], &st.wsum[x0], Cb.nx, Cb.ny, Cb.nz, Cb.id, Cb.px, Cb.py, Cb.pz, side(k, false),
+                            side(k, true), lok.data(), rok.data());
                     }
                 } else {
                     // Distances in groups; a group's last distances may pass `steps`, which every lane's radius
