@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <random>
 #include <thread>
+#include <string_view>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -21,15 +22,6 @@ namespace {
 
 constexpr aaf::sample_pattern all_patterns[] = {aaf::sample_pattern::stratified, aaf::sample_pattern::regular_grid,
                                                 aaf::sample_pattern::low_discrepancy};
-
-const char* name(aaf::sample_pattern p) {
-    switch (p) {
-        case aaf::sample_pattern::stratified: return "stratified";
-        case aaf::sample_pattern::regular_grid: return "regular_grid";
-        case aaf::sample_pattern::low_discrepancy: return "low_discrepancy";
-    }
-    return "?";
-}
 
 template <class T>
 std::vector<glm::vec<2, T>> samples(aaf::sample_pattern p, const aaf::sample_key& key, std::uint32_t n) {
@@ -86,7 +78,7 @@ TEMPLATE_TEST_CASE("every pattern and n from 1 to 150 stays in the unit square",
             for (std::uint32_t x : {0u, 17u, 4000000000u}) {
                 const auto pts = samples<T>(p, aaf::sample_key{x, 3, 1, 0, 7}, n);
                 for (const auto& q : pts) {
-                    INFO(name(p) << " n=" << n << " point " << q.x << ", " << q.y);
+                    INFO(aaf::to_string(p) << " n=" << n << " point " << q.x << ", " << q.y);
                     const bool inside = q.x >= T(0) && q.x < T(1) && q.y >= T(0) && q.y < T(1);
                     CHECK(inside);
                     if (!inside) return;
@@ -102,7 +94,7 @@ TEMPLATE_TEST_CASE("samples are a pure function of (pattern, key, n)", "[sampler
     const aaf::sample_key key{12, 34, 1, 2, 99};
     for (auto p : all_patterns)
         for (std::uint32_t n : {1u, 2u, 9u, 17u, 64u, 150u}) {
-            INFO(name(p) << " n=" << n);
+            INFO(aaf::to_string(p) << " n=" << n);
             CHECK(identical(samples<T>(p, key, n), samples<T>(p, key, n)));
             // Output buffers are overwritten completely, whatever they held before.
             std::vector<glm::vec<2, T>> dirty(n, glm::vec<2, T>(T(-5), T(7)));
@@ -116,7 +108,7 @@ TEMPLATE_TEST_CASE("samples are a pure function of (pattern, key, n)", "[sampler
         for (std::uint32_t n : {1u, 9u, 64u}) {
             const auto base = samples<T>(p, key, n);
             for (const auto& other : others) {
-                INFO(name(p) << " n=" << n << " key " << other.x << " " << other.y << " " << other.pass << " " << other.light
+                INFO(aaf::to_string(p) << " n=" << n << " key " << other.x << " " << other.y << " " << other.pass << " " << other.light
                              << " " << other.frame_seed);
                 const auto s = samples<T>(p, other, n);
                 std::size_t equal = 0;
@@ -145,7 +137,7 @@ TEMPLATE_TEST_CASE("stratified and regular_grid put one point in each equal-area
                 for (const auto& q : pts) ++hits[stratum_of(l, n, static_cast<double>(q.x), static_cast<double>(q.y))];
                 std::size_t bad = 0;
                 for (int h : hits) bad += h == 1 ? 0u : 1u;
-                INFO(name(p) << " n=" << n << " pixel " << pixel);
+                INFO(aaf::to_string(p) << " n=" << n << " pixel " << pixel);
                 CHECK(bad == 0u);
                 ++checked;
                 if (p == aaf::sample_pattern::regular_grid) {
@@ -313,4 +305,11 @@ TEMPLATE_TEST_CASE("samples do not depend on the thread that computes them", "[s
     std::size_t differ = 0;
     for (std::size_t i = 0; i < here.size(); ++i) differ += (identical(a[i], here[i]) && identical(b[i], here[i])) ? 0u : 1u;
     CHECK(differ == 0u);
+}
+
+TEST_CASE("to_string names every sample pattern as its enumerator", "[sampler]") {
+    static_assert(std::string_view(aaf::to_string(aaf::sample_pattern::stratified)) == "stratified");
+    CHECK(std::string_view(aaf::to_string(aaf::sample_pattern::regular_grid)) == "regular_grid");
+    CHECK(std::string_view(aaf::to_string(aaf::sample_pattern::low_discrepancy)) == "low_discrepancy");
+    CHECK(std::string_view(aaf::to_string(static_cast<aaf::sample_pattern>(99))) == "?");
 }

@@ -77,15 +77,6 @@ const std::vector<method_def>& definitions() {
     return defs;
 }
 
-const char* pattern_name(aaf::sample_pattern p) {
-    switch (p) {
-        case aaf::sample_pattern::stratified: return "stratified";
-        case aaf::sample_pattern::regular_grid: return "regular_grid";
-        case aaf::sample_pattern::low_discrepancy: return "low_discrepancy";
-    }
-    return "?";
-}
-
 /// The adaptive sweeps' cap on samples per pixel: ∝ μ², 100 at the paper's μ = 2 (the formulas' n grows
 /// as μ², so the cap binds equally often at every μ).
 std::uint32_t max_samples_for_mu(double mu) { return static_cast<std::uint32_t>(std::lround(100.0 * (mu / 2) * (mu / 2))); }
@@ -120,7 +111,7 @@ json settings_json(const method_def& m, const config& c) {
     j["weighting"] = "uniform";
     j["ray_origin_offset"] = "automatic (ULP offsetting)";
     if (m.kind == method_kind::mc) {
-        j["pattern"] = pattern_name(m.pattern);
+        j["pattern"] = aaf::to_string(m.pattern);
         j["knob"] = "spp: samples per surface pixel, doubling from 1";
         j["tracer"] = "BVH any-hit (visibility only)";
         j["filter"] = "none";
@@ -130,7 +121,7 @@ json settings_json(const method_def& m, const config& c) {
     // Everything that defines an aaf frame, from the settings of its first point (the knob's fields vary).
     const scene dummy{};
     const aaf::frame_settings<float> fs = aaf_settings(m, m.knob == "initial_samples" ? 9.0 : 2.0, c, dummy);
-    j["pattern"] = pattern_name(fs.sampling.pattern);
+    j["pattern"] = aaf::to_string(fs.sampling.pattern);
     if (m.kind == method_kind::preset) {
         j["knob"] = "none (one point)";
         j["initial_samples"] = fs.sampling.initial_samples;

@@ -27,6 +27,16 @@ enum class sample_pattern {
     low_discrepancy,
 };
 
+/// The enumerator's name ("stratified", "regular_grid", "low_discrepancy"), for logs and result files.
+[[nodiscard]] constexpr const char* to_string(sample_pattern p) noexcept {
+    switch (p) {
+        case sample_pattern::stratified: return "stratified";
+        case sample_pattern::regular_grid: return "regular_grid";
+        case sample_pattern::low_discrepancy: return "low_discrepancy";
+    }
+    return "?";
+}
+
 /// Identifies one pixel's sequence. Samples depend on these fields only: never on thread count or tile order.
 struct sample_key {
     std::uint32_t x = 0;           ///< pixel column
