@@ -1,8 +1,8 @@
 # ctest driver for aaf-render's command line (cmake -P). Usage:
 #   cmake -DRENDER=<aaf-render> -DWORK=<scratch dir> -DCASE=<name> -P render_cli_test.cmake
 # CASE "ok" renders a small built-in scene and checks every picture and the summary. Every other case
-# feeds one kind of bad input and checks: non-zero exit, exactly one line on stderr naming the problem,
-# and no output folder left behind.
+# feeds one kind of bad input and checks: exit code 1, exactly one line on stderr naming the problem,
+# and no output folder left behind (cli_usage_error.cmake).
 cmake_minimum_required(VERSION 3.25)
 
 set(dir "${WORK}/${CASE}")
@@ -89,19 +89,5 @@ if(CASE STREQUAL "ok")
     return()
 endif()
 
-if(rc EQUAL 0)
-    message(FATAL_ERROR "aaf-render accepted bad input (${CASE}); stdout:\n${stdout}")
-endif()
-string(STRIP "${stderr}" line)
-string(FIND "${line}" "\n" newline)
-if(NOT newline EQUAL -1)
-    message(FATAL_ERROR "the error is not one line:\n${stderr}")
-endif()
-string(FIND "${line}" "aaf-render: " prefix)
-string(FIND "${line}" "${expect}" at)
-if(NOT prefix EQUAL 0 OR at EQUAL -1)
-    message(FATAL_ERROR "expected an error naming '${expect}', got:\n${stderr}")
-endif()
-if(EXISTS "${out}")
-    message(FATAL_ERROR "a failed run left ${out} behind")
-endif()
+include("${CMAKE_CURRENT_LIST_DIR}/cli_usage_error.cmake")
+require_usage_error(aaf-render)

@@ -1,0 +1,25 @@
+# Shared by the examples' command-line drivers (render_cli_test.cmake, tradeoff_cli_test.cmake): checks that
+# a run of `tool` on bad input failed the way every example fails. Reads the caller's `rc`, `stdout`,
+# `stderr`, `expect`, `out` and `CASE`: exit code 1, exactly one line on stderr starting "<tool>: " and
+# naming `expect`, and no output folder left behind.
+function(require_usage_error tool)
+    if(rc EQUAL 0)
+        message(FATAL_ERROR "${tool} accepted bad input (${CASE}); stdout:\n${stdout}\nstderr:\n${stderr}")
+    endif()
+    if(NOT rc EQUAL 1)
+        message(FATAL_ERROR "${tool} exited with ${rc} on bad input (${CASE}), expected 1")
+    endif()
+    string(STRIP "${stderr}" line)
+    string(FIND "${line}" "\n" newline)
+    if(NOT newline EQUAL -1)
+        message(FATAL_ERROR "the error is not one line:\n${stderr}")
+    endif()
+    string(FIND "${line}" "${tool}: " prefix)
+    string(FIND "${line}" "${expect}" at)
+    if(NOT prefix EQUAL 0 OR at EQUAL -1)
+        message(FATAL_ERROR "expected an error naming '${expect}', got:\n${stderr}")
+    endif()
+    if(EXISTS "${out}")
+        message(FATAL_ERROR "a failed run left ${out} behind")
+    endif()
+endfunction()
