@@ -324,6 +324,19 @@ triangle_mesh grid_box(unsigned n) {
     return m;
 }
 
+/// 10k small random triangles in [-1.05, 1.05]³ (a dense soup: rays cross many separate subtrees).
+triangle_mesh random_soup(std::uint32_t seed) {
+    triangle_mesh m;
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    for (unsigned i = 0; i < 10000; ++i) {
+        const vec3 c(u(rng), u(rng), u(rng));
+        for (int k = 0; k < 3; ++k) m.vertices.push_back(c + 0.05f * vec3(u(rng), u(rng), u(rng)));
+        m.triangles.push_back({3 * i, 3 * i + 1, 3 * i + 2});
+    }
+    return m;
+}
+
 }  // namespace
 
 // -------------------------------------------------------------------------------------------------------------
@@ -421,15 +434,7 @@ TEST_CASE("bvh on a cube: axis-aligned rays through vertices, edges and faces, o
 }
 
 TEST_CASE("bvh matches brute force on 10k random triangles", "[bvh][synthetic]") {
-    triangle_mesh m;
-    std::mt19937 rng(10);
-    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-    for (unsigned i = 0; i < 10000; ++i) {
-        const vec3 c(u(rng), u(rng), u(rng));
-        for (int k = 0; k < 3; ++k) m.vertices.push_back(c + 0.05f * vec3(u(rng), u(rng), u(rng)));
-        m.triangles.push_back({3 * i, 3 * i + 1, 3 * i + 2});
-    }
-    const agreement a = check_mesh(m, 2000, 11);
+    const agreement a = check_mesh(random_soup(10), 2000, 11);
     CHECK(a.primary_hits > 600);
     CHECK(a.span_extents > 300);
 }
@@ -636,17 +641,8 @@ TEST_CASE("occluder_span: segments from inside the bounds ending exactly at, one
     cases.push_back({"bench", aaf_examples::load_triangles(asset("bench.obj")), {}, 1500});
     cases.push_back({"blinds", aaf_examples::load_triangles(asset("window-blinds.obj")), {}, 1500});
     cases.push_back({"Cornell box", aaf_examples::load_triangles(asset("CornellBox-Original.obj")), {}, 1500});
-    {  // a dense soup: rays cross many separate subtrees (more than occluder_span keeps aside at once)
-        triangle_mesh soup;
-        std::mt19937 rng(12);
-        std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-        for (unsigned i = 0; i < 10000; ++i) {
-            const vec3 c(u(rng), u(rng), u(rng));
-            for (int k = 0; k < 3; ++k) soup.vertices.push_back(c + 0.05f * vec3(u(rng), u(rng), u(rng)));
-            soup.triangles.push_back({3 * i, 3 * i + 1, 3 * i + 2});
-        }
-        cases.push_back({"soup, 1 per leaf", soup, {1, 2}, 600});
-    }
+    // A dense soup: rays cross more separate subtrees than occluder_span keeps aside at once.
+    cases.push_back({"soup, 1 per leaf", random_soup(12), {1, 2}, 600});
     for (const mesh_case& c : cases) {
         const bvh b(c.mesh.vertices, c.mesh.triangles, c.options);
         std::vector<std::string> mismatches;
