@@ -56,13 +56,11 @@ struct synthetic_frame {
     }
 };
 
-/// The filter's kernel radius for one pixel, by the library's rule (filter.hpp): ceil(truncation·β/d) in T,
+/// The filter's kernel radius for one pixel, the library's own rule (filter.hpp): ceil(truncation·β/d)
 /// capped at max_radius; 0 for β ≤ 0 or d ≤ 0 (the pixel is copied).
 template <class T>
 [[nodiscard]] std::size_t kernel_radius(T b, T d, const aaf::filter_settings<T>& s) {
-    if (!(b > T(0)) || !(d > T(0))) return 0;
-    const T r = std::ceil(s.truncation * (b / d));
-    return r < static_cast<T>(s.max_radius) ? static_cast<std::size_t>(r) : s.max_radius;
+    return b > T(0) && d > T(0) ? aaf::detail::kernel_radius(b / d, s) : 0;
 }
 
 /// Taps per pixel per pass (2r + 1, averaged over the frame); with `square`, taps per pixel of the
