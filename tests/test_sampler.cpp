@@ -14,6 +14,7 @@
 
 #include <glm/geometric.hpp>
 
+#include <aaf/region.hpp>
 #include <aaf/sampler.hpp>
 
 #include "support/analytic_scene.hpp"
@@ -312,4 +313,20 @@ TEST_CASE("to_string names every sample pattern as its enumerator", "[sampler]")
     CHECK(std::string_view(aaf::to_string(aaf::sample_pattern::regular_grid)) == "regular_grid");
     CHECK(std::string_view(aaf::to_string(aaf::sample_pattern::low_discrepancy)) == "low_discrepancy");
     CHECK(std::string_view(aaf::to_string(static_cast<aaf::sample_pattern>(99))) == "?");
+}
+
+TEST_CASE("a region's pixel key is the frame pixel's key", "[sampler][region]") {
+    const aaf::frame_region tile{.origin_x = 160, .origin_y = 120};
+    const aaf::sample_key k = aaf::pixel_key(tile, 3, 5, 2, 1, 77);
+    CHECK(k.x == 163);
+    CHECK(k.y == 125);
+    CHECK(k.pass == 2);
+    CHECK(k.light == 1);
+    CHECK(k.frame_seed == 77);
+    // The same frame pixel seen from the full frame and from the tile draws the same samples.
+    const auto full = samples<float>(aaf::sample_pattern::stratified, aaf::pixel_key(aaf::frame_region{}, 163, 125, 2, 1, 77), 9);
+    const auto from_tile = samples<float>(aaf::sample_pattern::stratified, k, 9);
+    CHECK(full == from_tile);
+    const auto other = samples<float>(aaf::sample_pattern::stratified, aaf::pixel_key(aaf::frame_region{}, 3, 5, 2, 1, 77), 9);
+    CHECK(other != from_tile);
 }

@@ -15,6 +15,7 @@
 #include "occlusion_stats.hpp"
 #include "pipeline.hpp"
 #include "ray_offset.hpp"
+#include "region.hpp"
 #include "sampler.hpp"
 #include "settings.hpp"
 #include "tracer.hpp"
