@@ -1,0 +1,87 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+// The examples' one method registry: every technique aaf-render can draw and aaf-tradeoff can measure is a
+// `method` here (a name, the quantity it estimates, its cost knob and how to render one point). A technique
+// family registers its methods in one function of its own file (methods_<family>.cpp or
+// <family>_methods.cpp) listed in registry(); neither tool has a switch over methods.
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include <aaf/executor.hpp>
+#include <aaf/image.hpp>
+
+#include "common/bvh.hpp"
+#include "common/render_support.hpp"
+#include "common/scene.hpp"
+
+namespace aaf_examples {
+
+/// What a method renders from: the scene, the examples' tracer, the camera's G-buffer and the threads.
+struct render_inputs {
+    const scene& s;
+    const bvh& tracer;
+    const gbuffer_images& g;
+    aaf::thread_pool& pool;
+    std::uint32_t seed = 0;  ///< frame seed of the measured render (references use their own)
+};
+
+/// The quantity a method estimates; it decides which converged reference the method is judged against.
+enum class quantity {
+    shadow,             ///< visibility of the scene's area light, [0, 1] (sky 1, no light 0)
+    ambient_occlusion,  ///< unoccluded fraction of the cosine-weighted hemisphere, [0, 1] (sky 1)
+    subsurface,         ///< subsurface radiance of the scene's translucent material, displayable [0, 1]
+};
+
+/// What one render of a method at one knob value gives back.
+struct method_output {
+    aaf::image<float> image;                                           ///< displayable result (sky as the quantity says)
+    std::uint64_t rays = 0;                                            ///< rays traced (of any kind), for rays per surface pixel
+    std::size_t memory_bytes = 0;                                      ///< working memory beyond the G-buffer (maps, statistics)
+    std::vector<std::pair<std::string, double>> stages_ms;             ///< named stages' times, e.g. {"rays", 12.5}
+    std::vector<std::pair<std::string, aaf::image<float>>> pictures;   ///< extra pictures for aaf-render (heat maps, ...)
+};
+
+/// One technique with its cost knob.
+struct method {
+    std::string name;                  ///< unique, lower_snake_case: the --method value and the JSON name
+    std::string family;                ///< "mc", "aaf", "preset", "shadow_maps", "occlusion", "subsurface", "variants"
+    quantity what = quantity::shadow;  ///< which reference judges it
+    std::string knob;                  ///< what its sweep varies ("spp", "mu", "map_size", ...)
+    std::vector<double> sweep;         ///< aaf-tradeoff's knob values, cheapest first
+    double default_knob = 0;           ///< aaf-render's value when --knob is not given
+    std::string help;                  ///< one line for --help
+    nlohmann::json settings;           ///< everything fixed besides the knob, for the JSON record
+    std::function<method_output(const render_inputs&, double knob)> render;
+};
+
+/// How a quantity's converged reference is made (the shadow reference is aaf_examples::reference_visibility).
+struct quantity_reference {
+    quantity what = quantity::shadow;
+    std::string name;             ///< "shadow", "ambient_occlusion", "subsurface"
+    std::string baseline_method;  ///< the Monte Carlo method equal-error ratios are taken against
+    /// The reference image with `samples` samples per pixel and frame seed `seed` (two such halves with
+    /// different seeds are averaged, their difference estimating the reference's own error).
+    std::function<aaf::image<float>(const render_inputs&, std::uint32_t samples, std::uint32_t seed)> render;
+};
+
+/// A family's contribution: its methods and, for a new quantity, its reference.
+struct method_family {
+    std::vector<method> methods;
+    std::vector<quantity_reference> references;
+};
+
+/// Every method of every family, in report order (the families of registry()).
+[[nodiscard]] const std::vector<method>& all_methods();
+/// The method called `name`; usage_error naming it and listing the known names when there is none.
+[[nodiscard]] const method& find_method(const std::string& name);
+/// The reference of `q`; usage_error when no family registered one.
+[[nodiscard]] const quantity_reference& find_reference(quantity q);
+
+}  // namespace aaf_examples
