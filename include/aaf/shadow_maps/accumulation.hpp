@@ -144,7 +144,9 @@ accumulation_stats accumulate_hard_shadows(const gbuffer<T, Ids>& gb, const area
                     for (std::size_t i = 0; i < w; ++i) {
                         const glm::vec<3, T> p = gb.positions(i, j), n = gb.normals(i, j);
                         if (!detail::finite3(p) || !detail::finite3(n) || !(lframe.weight(n, y - p, y) > T(0))) continue;
-                        const glm::vec<3, T> origin = shadow_ray_origin(p, n, y, settings.origin_offset);
+                        // Offset towards the light's centre, as gather_pixel does, so that this *is* gather_visibility's
+                        // estimator: a receiver facing away from the centre starts its rays on the far side.
+                        const glm::vec<3, T> origin = shadow_ray_origin(p, n, lframe.center, settings.origin_offset);
                         const glm::vec<3, T> to = y - origin;
                         const T len = glm::length(to);
                         if (!(len > T(0)) || !std::isfinite(len)) continue;
