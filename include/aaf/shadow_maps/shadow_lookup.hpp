@@ -134,6 +134,8 @@ public:
         frame_ = light_frame<T>(map.view);
         taps_ = settings.pcf.pattern == pcf_pattern::grid ? detail::grid_offsets<T>(settings.pcf.taps)
                                                           : poisson_disc<T>(settings.pcf.taps);
+        const std::uint32_t side = detail::grid_side(settings.pcf.taps);
+        for (std::uint32_t a = 0; a < side; ++a) grid_1d_.push_back(taps_[a].x);  // the first row's x = every row's
         blocker_taps_ = detail::grid_offsets<T>(settings.pcss.blocker_taps);
     }
 
@@ -184,8 +186,36 @@ private:
         return occludes(r, i, j) ? T(0) : T(1);
     }
 
+    /// The N×N grid without bilinear weights, separably: a grid's taps share N columns and N rows, so the column
+    /// and row indices, bounds and bias terms are computed 2N times instead of N² (threshold(i, j) is a sum of a
+    /// column term and a row term), and each tap is a load and a comparison. Same taps as the general loop.
+    [[nodiscard]] T pcf_grid(const detail::prepared_receiver<T>& r, T ru, T rv) const noexcept {
+        constexpr std::size_t max_side = 64;  // taps <= 4096
+        std::size_t cols[max_side], rows[max_side];
+        T col_term[max_side], row_term[max_side];
+        std::size_t nc = 0, nr = 0;
+        const auto w = static_cast<std::ptrdiff_t>(map_.width()), h = static_cast<std::ptrdiff_t>(map_.height());
+        for (const T o : grid_1d_) {
+            const auto i = static_cast<std::ptrdiff_t>(std::floor(r.u + ru * o));
+            if (i < 0 || i >= w) continue;  // outside the map: lit
+            const T du = static_cast<T>(i) + T(0.5) - r.u;
+            cols[nc] = static_cast<std::size_t>(i), col_term[nc++] = r.su * du - r.au * std::abs(du);
+        }
+        for (const T o : grid_1d_) {
+            const auto j = static_cast<std::ptrdiff_t>(std::floor(r.v + rv * o));
+            if (j < 0 || j >= h) continue;
+            const T dv = static_cast<T>(j) + T(0.5) - r.v;
+            rows[nr] = static_cast<std::size_t>(j), row_term[nr++] = r.z - r.c0 + r.sv * dv - r.av * std::abs(dv);
+        }
+        std::size_t occluded = 0;
+        for (std::size_t b = 0; b < nr; ++b)
+            for (std::size_t a = 0; a < nc; ++a) occluded += static_cast<T>(map_.depth(cols[a], rows[b])) < row_term[b] + col_term[a] ? 1 : 0;
+        return T(1) - static_cast<T>(occluded) / static_cast<T>(taps_.size());
+    }
+
     /// Lit fraction over the taps scaled by (ru, rv) texels around the receiver.
     [[nodiscard]] T pcf(const detail::prepared_receiver<T>& r, T ru, T rv, const sample_key& key) const noexcept {
+        if (settings_.pcf.pattern == pcf_pattern::grid && !settings_.pcf.bilinear) return pcf_grid(r, ru, rv);
         T c = 1, s = 0;
         if (settings_.pcf.pattern == pcf_pattern::rotated_poisson) {
             glm::vec<2, T> xi;
@@ -222,7 +252,8 @@ private:
         const T half = persp ? settings_.pcss.light_width * T(0.5) * (r.depth - v.near_plane) / r.depth
                              : (r.depth - v.near_plane) * settings_.pcss.light_angle * T(0.5);
         const glm::vec<2, T> fp = frame_.texel_footprint(persp ? v.near_plane : r.depth, map_.width(), map_.height());
-        const T su = std::min(half / fp.x, settings_.pcss.max_radius), sv = std::min(half / fp.y, settings_.pcss.max_radius);
+        const auto clamp_radius = [&](T k) { return k >= T(0) ? std::min(k, settings_.pcss.max_radius) : T(0); };
+        const T su = clamp_radius(half / fp.x), sv = clamp_radius(half / fp.y);
         T sum = 0;
         std::uint32_t count = 0;
         for (const glm::vec<2, T>& o : blocker_taps_) {
@@ -252,15 +283,19 @@ private:
         // Step 3: PCF whose kernel spans the penumbra (radius = w/2 at the receiver), clamped to max_radius.
         const T w = penumbra(r.depth, d_blocker);
         const glm::vec<2, T> fp = frame_.texel_footprint(r.depth, map_.width(), map_.height());
-        const T ru = std::min(T(0.5) * w / fp.x, settings_.pcss.max_radius);
-        const T rv = std::min(T(0.5) * w / fp.y, settings_.pcss.max_radius);
-        return pcf(r, ru, rv, key);
+        // NaN (a blocker depth that is not a number, from a caller-written map) gives the hard test's radius 0.
+        const auto radius = [&](T footprint) {
+            const T k = T(0.5) * w / footprint;
+            return k >= T(0) ? std::min(k, settings_.pcss.max_radius) : T(0);
+        };
+        return pcf(r, radius(fp.x), radius(fp.y), key);
     }
 
     depth_map_view<T> map_;
     lookup_settings<T> settings_;
     light_frame<T> frame_;
     std::vector<glm::vec<2, T>> taps_, blocker_taps_;
+    std::vector<T> grid_1d_;  ///< the grid's N offsets along one axis
 };
 
 /// The shadow-map lookup pass: writes each pixel's lit fraction (see the top of this header) into
@@ -278,11 +313,19 @@ void shadow_lookup(const depth_map_view<T>& map, const gbuffer<T, Ids>& gb, cons
     detail::require_depth_map(fn, map);
     detail::validate_lookup(fn, settings, map.view.projection);
     const shadow_map_sampler<T> sampler(map, settings);
-    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
-        for (std::size_t y = y0; y < y1; ++y)
-            for (std::size_t x = 0; x < w; ++x)
-                visibility(x, y) = sampler.visibility(gb.positions(x, y), gb.normals(x, y),
-                                                      pixel_key(region, x, y, 0, settings.light_index, settings.frame_seed));
+    // Pixels in 8×8 blocks, bands of 8 rows per task: neighbouring pixels read overlapping texels, and a block
+    // keeps them in cache whatever the map's orientation to the frame (row by row, a map whose rows run across
+    // the frame's would touch a new cache line per tap). Each pixel's value is independent of the order.
+    constexpr std::size_t block = 8;
+    exec.parallel_for((h + block - 1) / block, [&](std::size_t b0, std::size_t b1) {
+        for (std::size_t b = b0; b < b1; ++b) {
+            const std::size_t y0 = b * block, y1 = std::min(y0 + block, h);
+            for (std::size_t x0 = 0; x0 < w; x0 += block)
+                for (std::size_t y = y0; y < y1; ++y)
+                    for (std::size_t x = x0, x1 = std::min(x0 + block, w); x < x1; ++x)
+                        visibility(x, y) = sampler.visibility(gb.positions(x, y), gb.normals(x, y),
+                                                              pixel_key(region, x, y, 0, settings.light_index, settings.frame_seed));
+        }
     });
 }
 
