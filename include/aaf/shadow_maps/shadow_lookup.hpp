@@ -91,9 +91,11 @@ void validate_lookup(const char* fn, const lookup_settings<T>& s, depth_projecti
     validate_bias(fn, s.bias);
     if (s.pcf.taps < 1 || s.pcf.taps > 4096) throw_invalid(fn, "`settings.pcf.taps` must be in [1, 4096]");
     if (!(s.pcf.radius >= T(0) && s.pcf.radius <= T(4096))) throw_invalid(fn, "`settings.pcf.radius` must be in [0, 4096] texels");
-    if (s.filter != shadow_filter::pcss) return;
+    // The search's fields have valid defaults, so they are checked always (pcss_penumbra_width reads them in
+    // any mode); the light's size only for PCSS, which cannot run without it.
     if (s.pcss.blocker_taps < 1 || s.pcss.blocker_taps > 4096) throw_invalid(fn, "`settings.pcss.blocker_taps` must be in [1, 4096]");
     if (!(s.pcss.max_radius > T(0) && s.pcss.max_radius <= T(4096))) throw_invalid(fn, "`settings.pcss.max_radius` must be in (0, 4096] texels");
+    if (s.filter != shadow_filter::pcss) return;
     if (projection == depth_projection::perspective && !(s.pcss.light_width > T(0) && std::isfinite(s.pcss.light_width)))
         throw_invalid(fn, "`settings.pcss.light_width` must be finite and > 0 for a perspective map (PCSS needs the light's size)");
     if (projection == depth_projection::orthographic && !(s.pcss.light_angle > T(0) && std::isfinite(s.pcss.light_angle)))
@@ -158,8 +160,11 @@ public:
     }
 
     /// The PCSS penumbra width (world units, at the receiver) this sampler estimates for `p`, or 0 when its
-    /// blocker search finds no blocker (lit) or `p` is outside the map: for tests and debug views.
+    /// blocker search finds no blocker (lit), `p` is outside the map, or the settings give no light size for
+    /// the map's projection: for tests and debug views.
     [[nodiscard]] T pcss_penumbra_width(const glm::vec<3, T>& p, const glm::vec<3, T>& n) const noexcept {
+        const T size = map_.view.projection == depth_projection::perspective ? settings_.pcss.light_width : settings_.pcss.light_angle;
+        if (!(size > T(0) && std::isfinite(size)) || !detail::finite3(p) || !detail::finite3(n)) return T(0);
         const detail::prepared_receiver<T> r = prepare(p, n);
         if (!r.inside) return T(0);
         T d_blocker = 0;
@@ -273,8 +278,9 @@ private:
     /// an orthographic one. d_b > 0 always (it is at least the near plane, > 0 for perspective maps).
     [[nodiscard]] T penumbra(T d_receiver, T d_blocker) const noexcept {
         const T gap = std::max(d_receiver - d_blocker, T(0));
-        return map_.view.projection == depth_projection::perspective ? gap * settings_.pcss.light_width / d_blocker
-                                                                     : gap * settings_.pcss.light_angle;
+        const T w = map_.view.projection == depth_projection::perspective ? gap * settings_.pcss.light_width / d_blocker
+                                                                          : gap * settings_.pcss.light_angle;
+        return w >= T(0) ? w : T(0);  // a blocker depth that is not a number (caller-written ±Inf) gives a hard edge
     }
 
     [[nodiscard]] T pcss(const detail::prepared_receiver<T>& r, const sample_key& key) const noexcept {
