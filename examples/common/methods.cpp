@@ -3,6 +3,8 @@
 
 #include "common/methods.hpp"
 
+#include "common/shadow_maps_methods.hpp"
+
 #include <algorithm>
 #include <cstdio>
 
@@ -14,6 +16,7 @@ namespace {
 std::vector<method_family> registry() {
     std::vector<method_family> families;
     families.push_back(shadow_methods());
+    families.push_back(shadow_map_methods());
     return families;
 }
 
