@@ -60,6 +60,11 @@ TEST_CASE("AO settings out of range are named errors", "[occlusion]") {
     CHECK_THAT(what_of([&] { aaf::filter_ambient_occlusion(f.gb(), st.cview(), fs, aaf::ao_outputs<float>{out.view(), {}, {}, {}}); }),
                Catch::Contains("settings.omega_h"));
     fs = {};
+    fs.spread_radius = 1025;
+    CHECK_THAT(what_of([&] { aaf::filter_ambient_occlusion(f.gb(), st.cview(), fs, aaf::ao_outputs<float>{out.view(), {}, {}, {}}); }),
+               Catch::Contains("settings.spread_radius"));
+    CHECK_THAT(what_of([&] { aaf::spread_hit_distances(f.gb(), st.view(), 2000); }), Catch::Contains("`radius`"));
+    fs = {};
     fs.space = aaf::offset_space::light_plane;  // no light in AO
     CHECK_THAT(what_of([&] { aaf::filter_ambient_occlusion(f.gb(), st.cview(), fs, aaf::ao_outputs<float>{out.view(), {}, {}, {}}); }),
                Catch::Contains("settings.space"));

@@ -7,6 +7,7 @@
 // Limits (tested in tests/test_occlusion_filter.cpp):
 // * no hit (z_min = +∞)       → β = 0 (the pixel is left as sampled: with no occluder in range its cosine-
 //                               sampled estimate is exactly 1) and n = 0 (no adaptive samples wanted);
+//                               render_ambient_occlusion first spreads its neighbours' z to it when it can;
 // * contact, z_min → 0        → β → 0 (nothing to filter over) and n → +∞, clamped to the cap;
 // * NaN z_min or pixel size   → as "no hit";
 // * μ → ∞                     → β → 0: the filtered result is the Monte Carlo one (consistency).
@@ -176,10 +177,42 @@ void filter_ambient_occlusion(const gbuffer<T, Ids>& gb, const_image_view<ao_sta
             for (std::size_t x = 0; x < w; ++x) out.filter_width(x, y) = beta(x, y);
 }
 
+/// Gives every record without hits of its own the smallest z_min and largest z_max of the records with hits
+/// within `radius` pixels (a square window, same object ID when the G-buffer has IDs), by the core's
+/// aaf::spread_slopes on (s1, s2) = (z_max, z_min): its max/min and "keep your own" rules are exactly the
+/// ones needed. `hits` stays 0, so a spread record is still known to have seen nothing itself. Records that
+/// receive nothing keep z_min = +∞ (no hit: not filtered, no adaptive samples).
+template <class T, class Ids, class Exec = sequential_executor>
+void spread_hit_distances(const gbuffer<T, Ids>& gb, image_view<ao_stats<T>> stats, std::uint32_t radius, Exec&& exec = {}) {
+    constexpr const char* fn = "spread_hit_distances";
+    detail::require_gbuffer(fn, gb);
+    const std::size_t w = gb.width(), h = gb.height();
+    detail::require_size(fn, "stats", stats, w, h);
+    if (radius > 1024) detail::throw_invalid(fn, "`radius` must be <= 1024 (got " + std::to_string(radius) + ")");
+    if (radius == 0) return;
+    image<slope_pair<T>> z(w, h), scratch(w, h);
+    for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x)
+            if (stats(x, y).has_hit() && stats(x, y).z_min < std::numeric_limits<T>::infinity())
+                z(x, y) = {stats(x, y).z_max, stats(x, y).z_min};
+    if constexpr (gbuffer<T, Ids>::has_ids)
+        spread_slopes<T>(z.view(), scratch.view(), radius, guides<no_guide, Ids, no_guide>{{}, gb.ids, {}}, exec);
+    else
+        spread_slopes<T>(z.view(), scratch.view(), radius, guides<>{}, exec);
+    for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x) {
+            ao_stats<T>& r = stats(x, y);
+            if (r.has_hit() || !z(x, y).has_occluder()) continue;
+            r.z_min = z(x, y).s2;
+            r.z_max = z(x, y).s1;
+        }
+}
+
 /// One filtered AO frame: `settings.sampling.initial_samples` samples per pixel (pass 0, with distances),
-/// then, when `adaptive`, each pixel with a hit gets up to n = ao_sample_count(…) samples in total (pass 1,
-/// visibility only, capped at sampling.max_samples), then the filter (when `filtered`). Writes `out`;
-/// returns the number of rays traced. `region` places the buffers in the full frame (tiles).
+/// then hit distances spread to pixels without hits (spread_hit_distances, filter.spread_radius), then, when
+/// `adaptive`, each pixel with a (possibly spread) z_min gets up to n = ao_sample_count(…) samples in total
+/// (pass 1, visibility only, capped at sampling.max_samples), then the filter (when `filtered`). Writes
+/// `out`; returns the number of rays traced. `region` places the buffers in the full frame (tiles).
 template <class T, class Ids, class Tracer, class Exec = sequential_executor>
 std::uint64_t render_ambient_occlusion(const gbuffer<T, Ids>& gb, const Tracer& tracer, const ao_frame_settings<T>& s,
                                        const ao_outputs<T>& out, const frame_region& region = {}, Exec&& exec = {}) {
@@ -192,13 +225,14 @@ std::uint64_t render_ambient_occlusion(const gbuffer<T, Ids>& gb, const Tracer& 
     image<ao_stats<T>> stats(w, h);
     std::uint64_t rays =
         gather_ambient_occlusion(gb, tracer, s.sampling, 0, s.sampling.initial_samples, stats.view(), {}, region, exec);
+    spread_hit_distances(gb, stats.view(), s.filter.spread_radius, exec);
     image<std::uint32_t> extra(w, h, 0u);
     if (s.adaptive) {
         bool any = false;
         for (std::size_t y = 0; y < h; ++y)
             for (std::size_t x = 0; x < w; ++x) {
                 const ao_stats<T>& r = stats(x, y);
-                if (r.samples == 0 || !r.has_hit()) continue;
+                if (r.samples == 0 || !(r.z_min < std::numeric_limits<T>::infinity())) continue;
                 const T n = ao_sample_count(r.z_min, r.z_max, gb.pixel_size(x, y), s.filter);
                 const std::uint32_t target = target_samples(n, s.sampling.initial_samples, s.sampling.max_samples);
                 extra(x, y) = target > r.samples ? target - r.samples : 0u;

@@ -64,6 +64,11 @@ struct ao_filter_settings {
     /// Where distances between pixels are measured: image space (β/d pixels) or world offsets projected on
     /// the centre pixel's tangent plane (the authors' choice; needs positions and normals).
     offset_space space = offset_space::tangent_plane;
+    /// A pixel whose initial samples hit nothing within range takes the smallest z_min and largest z_max of the
+    /// pixels with hits within this many pixels (same object ID), so it is filtered and sampled adaptively
+    /// like its neighbours (the AO counterpart of the shadows' slope spreading, FORMULAS.md §1.12, run by the
+    /// core's aaf::spread_slopes); [0, 1024], 0 = off (such pixels stay unfiltered with their initial samples).
+    std::uint32_t spread_radius = 10;
 };
 
 template <class T>
@@ -102,6 +107,8 @@ void validate(const ao_filter_settings<T>& s, const char* function = "validate")
     require(std::isfinite(s.truncation) && s.truncation > T(0) && s.truncation <= T(10), function, "settings.truncation",
             "must be in (0, 10] (got " + std::to_string(s.truncation) + ")");
     require(s.max_radius <= 1024, function, "settings.max_radius", "must be <= 1024 (got " + std::to_string(s.max_radius) + ")");
+    require(s.spread_radius <= 1024, function, "settings.spread_radius",
+            "must be <= 1024 (got " + std::to_string(s.spread_radius) + ")");
     require(s.space == offset_space::image || s.space == offset_space::tangent_plane, function, "settings.space",
             "must be offset_space::image or ::tangent_plane");
 }
