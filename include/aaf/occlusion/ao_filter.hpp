@@ -82,7 +82,8 @@ struct ao_frame_settings {
 template <class T = float>
 struct ao_outputs {
     image_view<T> visibility;                ///< cosine-weighted ambient visibility 1 − occlusion; NaN = no estimate
-    image_view<glm::vec<3, T>> bent_normal;  ///< unit bent normals (the normal where no direction is unoccluded)
+    /// Unit bent normals: the normal where no direction is unoccluded, NaN where there is no estimate.
+    image_view<glm::vec<3, T>> bent_normal;
     image_view<T> filter_width;              ///< β per pixel, world units (0 = not filtered), for heat maps
     image_view<std::uint32_t> samples;       ///< samples per pixel after the adaptive pass, for heat maps
 };
@@ -90,7 +91,7 @@ struct ao_outputs {
 namespace detail {
 
 template <class T>
-void require_outputs(const char* fn, const ao_outputs<T>& o, std::size_t w, std::size_t h) {
+void require_ao_outputs(const char* fn, const ao_outputs<T>& o, std::size_t w, std::size_t h) {
     require_size(fn, "outputs.visibility", o.visibility, w, h);
     require_size_or_empty(fn, "outputs.bent_normal", o.bent_normal, w, h);
     require_size_or_empty(fn, "outputs.filter_width", o.filter_width, w, h);
@@ -98,7 +99,7 @@ void require_outputs(const char* fn, const ao_outputs<T>& o, std::size_t w, std:
 }
 
 template <class T>
-[[nodiscard]] filter_settings<T> core_filter_settings(const ao_filter_settings<T>& s) noexcept {
+[[nodiscard]] filter_settings<T> ao_core_filter_settings(const ao_filter_settings<T>& s) noexcept {
     filter_settings<T> f;
     f.space = s.space;
     f.truncation = s.truncation;
@@ -126,7 +127,7 @@ void filter_ambient_occlusion(const gbuffer<T, Ids>& gb, const_image_view<ao_sta
     validate(s, fn);
     const std::size_t w = gb.width(), h = gb.height();
     detail::require_size(fn, "stats", stats, w, h);
-    detail::require_outputs(fn, out, w, h);
+    detail::require_ao_outputs(fn, out, w, h);
     image<T> beta(w, h), vis(w, h);
     image<glm::vec<3, T>> normals(w, h);
     std::array<image<T>, 3> bent;
@@ -137,7 +138,7 @@ void filter_ambient_occlusion(const gbuffer<T, Ids>& gb, const_image_view<ao_sta
     for (std::size_t y = 0; y < h; ++y)
         for (std::size_t x = 0; x < w; ++x) {
             const ao_stats<T>& r = stats(x, y);
-            const glm::vec<3, T> n = detail::unit_or_zero(gb.normals(x, y));
+            const glm::vec<3, T> n = detail::ao_unit_or_zero(gb.normals(x, y));
             normals(x, y) = n == glm::vec<3, T>(0) ? glm::vec<3, T>(nan) : n;  // NaN normals reject as guides
             vis(x, y) = r.visibility();
             beta(x, y) = std::isfinite(vis(x, y)) ? ao_filter_width(r.z_min, s) : T(0);
@@ -146,7 +147,7 @@ void filter_ambient_occlusion(const gbuffer<T, Ids>& gb, const_image_view<ao_sta
                 for (int c = 0; c < 3; ++c) bent[c](x, y) = b[c];
             }
         }
-    const filter_settings<T> fs = detail::core_filter_settings(s);
+    const filter_settings<T> fs = detail::ao_core_filter_settings(s);
     image<T> scratch(w, h);
     const auto run = [&](const image<T>& src, image_view<T> dst) {
         if constexpr (gbuffer<T, Ids>::has_ids)
@@ -221,7 +222,7 @@ std::uint64_t render_ambient_occlusion(const gbuffer<T, Ids>& gb, const Tracer& 
     validate(s.sampling, fn);
     validate(s.filter, fn);
     const std::size_t w = gb.width(), h = gb.height();
-    detail::require_outputs(fn, out, w, h);
+    detail::require_ao_outputs(fn, out, w, h);
     image<ao_stats<T>> stats(w, h);
     std::uint64_t rays =
         gather_ambient_occlusion(gb, tracer, s.sampling, 0, s.sampling.initial_samples, stats.view(), {}, region, exec);
@@ -250,7 +251,10 @@ std::uint64_t render_ambient_occlusion(const gbuffer<T, Ids>& gb, const Tracer& 
     for (std::size_t y = 0; y < h; ++y)
         for (std::size_t x = 0; x < w; ++x) {
             out.visibility(x, y) = stats(x, y).visibility();
-            if (!out.bent_normal.empty()) out.bent_normal(x, y) = stats(x, y).bent_normal(detail::unit_or_zero(gb.normals(x, y)));
+            if (!out.bent_normal.empty())
+                out.bent_normal(x, y) = std::isfinite(out.visibility(x, y))
+                                            ? stats(x, y).bent_normal(detail::ao_unit_or_zero(gb.normals(x, y)))
+                                            : glm::vec<3, T>(std::numeric_limits<T>::quiet_NaN());
             if (!out.filter_width.empty()) out.filter_width(x, y) = T(0);
         }
     return rays;

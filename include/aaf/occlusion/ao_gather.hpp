@@ -37,7 +37,7 @@ inline namespace v0 {
 namespace detail {
 
 /// The key row of mesh element i: vertices (kind 0) and triangles (kind 1) never share a key, at any count.
-[[nodiscard]] constexpr std::uint32_t mesh_key_row(std::size_t i, std::uint32_t kind) noexcept {
+[[nodiscard]] constexpr std::uint32_t ao_mesh_key_row(std::size_t i, std::uint32_t kind) noexcept {
     return static_cast<std::uint32_t>((static_cast<std::uint64_t>(i) >> 32) * 2 + kind);
 }
 
@@ -58,7 +58,7 @@ struct ao_scratch {
 
 /// The unit normal of a G-buffer or mesh normal, or a zero vector when it has none (zero, non-finite).
 template <class T>
-[[nodiscard]] glm::vec<3, T> unit_or_zero(const glm::vec<3, T>& n) noexcept {
+[[nodiscard]] glm::vec<3, T> ao_unit_or_zero(const glm::vec<3, T>& n) noexcept {
     const T len = glm::length(n);
     if (!(len > T(0)) || !std::isfinite(len)) return glm::vec<3, T>(0);
     return n / len;
@@ -145,7 +145,7 @@ std::uint64_t gather_ambient_occlusion(const gbuffer<T, Ids>& gb, const Tracer& 
                 const std::uint32_t count = std::min(sample_counts.empty() ? samples_per_pixel : sample_counts(x, y), s.max_samples);
                 if (count == 0) continue;
                 const glm::vec<3, T> p = gb.positions(x, y);
-                const glm::vec<3, T> n = detail::unit_or_zero(gb.normals(x, y));
+                const glm::vec<3, T> n = detail::ao_unit_or_zero(gb.normals(x, y));
                 if (!std::isfinite(p.x + p.y + p.z) || n == glm::vec<3, T>(0)) continue;
                 local += detail::ao_point(p, n, tracer, s, distances, pixel_key(region, x, y, pass, s.stream, s.frame_seed),
                                           count, stats(x, y), scratch);
@@ -183,9 +183,9 @@ std::uint64_t bake_vertex_occlusion(std::span<const glm::vec<3, T>> positions, s
         for (std::size_t i = b; i < e; ++i) {
             stats[i] = {};
             const glm::vec<3, T> p = positions[i];
-            const glm::vec<3, T> n = detail::unit_or_zero(normals[i]);
+            const glm::vec<3, T> n = detail::ao_unit_or_zero(normals[i]);
             if (!std::isfinite(p.x + p.y + p.z) || n == glm::vec<3, T>(0)) continue;
-            const sample_key key{static_cast<std::uint32_t>(i), detail::mesh_key_row(i, 0), 0, s.stream, s.frame_seed};
+            const sample_key key{static_cast<std::uint32_t>(i), detail::ao_mesh_key_row(i, 0), 0, s.stream, s.frame_seed};
             local += detail::ao_point(p, n, tracer, s, distances, key, s.initial_samples, stats[i], scratch);
         }
         rays += local;
@@ -222,10 +222,10 @@ std::uint64_t bake_triangle_occlusion(std::span<const glm::vec<3, T>> positions,
             stats[i] = {};
             const glm::vec<3, T> a = positions[triangles[i].x], bb = positions[triangles[i].y], c = positions[triangles[i].z];
             const glm::vec<3, T> p = (a + bb + c) / T(3);
-            glm::vec<3, T> n = detail::unit_or_zero(glm::cross(bb - a, c - a));
+            glm::vec<3, T> n = detail::ao_unit_or_zero(glm::cross(bb - a, c - a));
             if (flip) n = -n;
             if (!std::isfinite(p.x + p.y + p.z) || n == glm::vec<3, T>(0)) continue;
-            const sample_key key{static_cast<std::uint32_t>(i), detail::mesh_key_row(i, 1), 0, s.stream, s.frame_seed};
+            const sample_key key{static_cast<std::uint32_t>(i), detail::ao_mesh_key_row(i, 1), 0, s.stream, s.frame_seed};
             local += detail::ao_point(p, n, tracer, s, distances, key, s.initial_samples, stats[i], scratch);
         }
         rays += local;
