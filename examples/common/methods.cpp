@@ -3,6 +3,7 @@
 
 #include "common/methods.hpp"
 
+#include "common/occlusion_methods.hpp"
 #include "common/shadow_maps_methods.hpp"
 
 #include <algorithm>
@@ -17,6 +18,7 @@ std::vector<method_family> registry() {
     std::vector<method_family> families;
     families.push_back(shadow_methods());
     families.push_back(shadow_map_methods());
+    families.push_back(occlusion_methods());
     return families;
 }
 
