@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <type_traits>
 #include <vector>
 
@@ -20,6 +21,7 @@
 #include "image_view.hpp"
 #include "occlusion_stats.hpp"
 #include "ray_offset.hpp"
+#include "region.hpp"
 #include "sampler.hpp"
 #include "settings.hpp"
 #include "tracer.hpp"
@@ -34,12 +36,15 @@ inline namespace v0 {
 ///   (towards the light's side) and as a filter guide. Geometric normals avoid self-shadowing on
 ///   smooth-shaded low-poly meshes; shading normals also work.
 /// * `pixel_size`: projected pixel size d in world units (formulas.hpp: pinhole_pixel_size).
+/// * `region`: where these buffers sit in the full frame (region.hpp). Sample keys use frame coordinates,
+///   so a tile's buffers (with the halo of region_halo) render the tile's pixels exactly as the full frame.
 template <class T = float, class Ids = no_guide>
 struct gbuffer {
     const_image_view<glm::vec<3, T>> positions;
     const_image_view<glm::vec<3, T>> normals;
     const_image_view<T> pixel_size;
     Ids ids{};
+    frame_region region{};
 
     static constexpr bool has_ids = !std::is_same_v<Ids, no_guide>;
     [[nodiscard]] std::size_t width() const noexcept { return positions.width(); }
@@ -48,6 +53,28 @@ struct gbuffer {
 
 namespace detail {
 
+/// The region's frame size is both dimensions or neither, and `w` × `h` buffers placed at its origin lie
+/// inside the frame (and inside the 2^32 × 2^32 key space when the frame's size is unknown).
+inline void require_region(const char* fn, const char* arg, const frame_region& r, std::size_t w, std::size_t h) {
+    const auto fits = [](std::uint64_t origin, std::size_t extent, std::uint64_t limit) {
+        return static_cast<std::uint64_t>(extent) <= limit && origin <= limit - extent;
+    };
+    const auto where = [&] {
+        return std::to_string(w) + "x" + std::to_string(h) + " buffers at (" + std::to_string(r.origin_x) + ", " +
+               std::to_string(r.origin_y) + ")";
+    };
+    if ((r.frame_width == 0) != (r.frame_height == 0))
+        throw_invalid(fn, std::string("`") + arg + "` gives one frame dimension but not the other (" +
+                              std::to_string(r.frame_width) + "x" + std::to_string(r.frame_height) + "); give both or neither");
+    if (r.knows_frame()) {
+        if (!fits(r.origin_x, w, r.frame_width) || !fits(r.origin_y, h, r.frame_height))
+            throw_invalid(fn, std::string("`") + arg + "` places " + where() + ", outside the " + std::to_string(r.frame_width) +
+                                  "x" + std::to_string(r.frame_height) + " frame");
+    } else if (!fits(r.origin_x, w, std::uint64_t{1} << 32) || !fits(r.origin_y, h, std::uint64_t{1} << 32)) {
+        throw_invalid(fn, std::string("`") + arg + "` places " + where() + ", beyond 2^32 pixels");
+    }
+}
+
 template <class T, class Ids>
 void require_gbuffer(const char* fn, const gbuffer<T, Ids>& gb) {
     require_nonempty(fn, "gbuffer.positions", gb.positions);
@@ -55,6 +82,7 @@ void require_gbuffer(const char* fn, const gbuffer<T, Ids>& gb) {
     require_size(fn, "gbuffer.normals", gb.normals, w, h);
     require_size(fn, "gbuffer.pixel_size", gb.pixel_size, w, h);
     if constexpr (gbuffer<T, Ids>::has_ids) require_size(fn, "gbuffer.ids", gb.ids, w, h);
+    require_region(fn, "gbuffer.region", gb.region, w, h);
 }
 
 template <class T>
@@ -154,8 +182,7 @@ std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_
                 const glm::vec<3, T> p = gb.positions(x, y);
                 const glm::vec<3, T> n = gb.normals(x, y);
                 if (!std::isfinite(p.x + p.y + p.z) || !std::isfinite(n.x + n.y + n.z)) continue;
-                const sample_key key{static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y), pass, s.light_index,
-                                     s.frame_seed};
+                const sample_key key = pixel_key(gb.region, x, y, pass, s.light_index, s.frame_seed);
                 local += gather_pixel<Query>(p, n, light, frame, tracer, s, key, std::min(count, s.max_samples), stats(x, y), scratch);
             }
         }

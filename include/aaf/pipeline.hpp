@@ -21,6 +21,7 @@
 #include "guides.hpp"
 #include "image.hpp"
 #include "occlusion_stats.hpp"
+#include "region.hpp"
 #include "settings.hpp"
 #include "tracer.hpp"
 
@@ -88,6 +89,9 @@ inline double ms_since(std::chrono::steady_clock::time_point t0) {
 /// * `progress(fraction)` is called between stages; returning false cancels the frame before any output
 ///   is written (report.cancelled).
 /// * Deterministic: the same inputs and `settings.sampling.frame_seed` give the same image on any executor.
+/// * Tiles: with `gb.region` placing the buffers in the frame, and buffers that cover a tile plus
+///   region_halo(settings) pixels on every side that is not a frame edge (plan_region), the tile's pixels
+///   are bit-identical to the same pixels of a full-frame render. The halo's own outputs are not.
 /// Throws aaf::invalid_argument, before writing anything, for mismatched buffers or invalid settings.
 template <class T, class Ids, class Tracer, class Exec = sequential_executor, class Progress = no_progress>
     requires occlusion_tracer<Tracer, T>
@@ -136,9 +140,23 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
     // 3. Adaptive pass: n from the formulas, capped at max_samples in total.
     if (ss.adaptive && ss.max_samples > ss.initial_samples) {
         t0 = clock::now();
+        // In a tile's buffers (gbuffer.region with the frame's size), pixels nearer than the spreading's reach
+        // to a halo edge feed only the spreading of their neighbours, which reads the first pass alone: no
+        // pixel of the tile reads their visibility (the filter reaches max_radius, and stops there), so they
+        // get no adaptive samples. Their outputs are not the frame's anyway.
+        const frame_region& r = gb.region;
+        const std::size_t halo = region_halo_extent(settings).spread;
+        const bool tile = r.knows_frame();
+        const std::size_t left = tile && r.origin_x > 0 ? halo : 0, top = tile && r.origin_y > 0 ? halo : 0;
+        const std::size_t right = tile && r.origin_x + w < r.frame_width ? halo : 0;
+        const std::size_t bottom = tile && r.origin_y + h < r.frame_height ? halo : 0;
         exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
             for (std::size_t y = y0; y < y1; ++y)
                 for (std::size_t x = 0; x < w; ++x) {
+                    if (x < left || y < top || x + right >= w || y + bottom >= h) {
+                        ws.adaptive_samples(x, y) = 0;
+                        continue;
+                    }
                     const T n = sample_count(ws.slopes(x, y), sigma, gb.pixel_size(x, y), fs);
                     const std::uint32_t target = target_samples(n, ss.initial_samples, ss.max_samples);
                     ws.adaptive_samples(x, y) = target - ss.initial_samples;
