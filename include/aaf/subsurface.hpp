@@ -6,3 +6,7 @@
 #include "subsurface/material.hpp"
 #include "subsurface/dipole.hpp"
 #include "subsurface/directional_dipole.hpp"
+#include "subsurface/light_map.hpp"
+#include "subsurface/epsilons.hpp"
+#include "subsurface/gather.hpp"
+#include "subsurface/reference.hpp"
