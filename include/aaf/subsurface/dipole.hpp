@@ -132,6 +132,23 @@ struct dipole {
         return alpha_prime / 2 * (source(z_r) + source(z_v));
     }
 
+    /// ∫ R_d(√(r² + Δ²)) dA over a disc of radius ρ whose plane lies Δ ≥ 0 away from the point (FORMULAS.md
+    /// §5.3's per-texel weight with a depth difference Δz): the same antiderivative between d(0) = √(Δ² + z²)
+    /// and d(ρ) = √(ρ² + Δ² + z²), i.e. (α′/2) Σ (z/d₀)·e^{−σd₀}·[1 − (d₀/d)e^{−σ(d−d₀)}]. Δ = 0 is disc_integral(ρ).
+    [[nodiscard]] double disc_integral(double rho, double depth) const noexcept {
+        if (!(rho > 0)) return 0;
+        if (!(depth > 0)) return disc_integral(rho);
+        const auto source = [&](double z) {
+            const double d0 = std::sqrt(depth * depth + z * z);
+            const double ez = z / d0 * std::exp(-sigma_tr * d0);
+            if (std::isinf(rho)) return ez;
+            const double d = std::sqrt(rho * rho + d0 * d0);
+            const double delta = rho * rho / (d + d0);
+            return -ez * std::expm1(-std::log1p(delta / d0) - sigma_tr * delta);
+        };
+        return alpha_prime / 2 * (source(z_r) + source(z_v));
+    }
+
     /// Total diffuse reflectance R_d^tot = (α′/2)(1 + e^{−(4/3)A√(3(1−α′))})e^{−√(3(1−α′))} (FORMULAS.md §5.1).
     [[nodiscard]] double total() const noexcept {
         const double s = std::sqrt(3 * (1 - alpha_prime));
@@ -167,6 +184,9 @@ struct rgb_dipole {
     [[nodiscard]] glm::dvec3 disc_integral(double rho) const noexcept {
         return {channel[0].disc_integral(rho), channel[1].disc_integral(rho), channel[2].disc_integral(rho)};
     }
+    [[nodiscard]] glm::dvec3 disc_integral(double rho, double depth) const noexcept {
+        return {channel[0].disc_integral(rho, depth), channel[1].disc_integral(rho, depth), channel[2].disc_integral(rho, depth)};
+    }
     [[nodiscard]] glm::dvec3 total() const noexcept { return {channel[0].total(), channel[1].total(), channel[2].total()}; }
     /// The smallest σ_tr over channels: 1/σ_tr_min is the longest diffusion length, which sets gather radii.
     [[nodiscard]] double min_sigma_tr() const noexcept {
@@ -193,16 +213,26 @@ public:
             const double rmax = std::isinf(radius) ? ch.radius_of_fraction(1 - 1e-6) : radius;
             norm_[c] = ch.disc_integral(rmax);
             table_[c].resize(table_size + 1);
+            // Invert the closed-form CDF on a fine forward grid ρ_k = rmax·(k/K)² (dense where R_d peaks), then
+            // interpolate: 8·table_size evaluations instead of a root search per entry.
+            const std::size_t K = 8 * table_size;
+            std::size_t k = 0;
+            double rho_prev = 0, cdf_prev = 0;
             for (std::size_t i = 0; i <= table_size; ++i) {
                 // Tabulated over s = √u: near ρ = 0 the CDF grows like ρ², so ρ(s) is close to linear there.
-                const double s = double(i) / double(table_size);
-                const double target = norm_[c] * s * s;
-                double lo = 0, hi = rmax;
-                for (int it = 0; it < 80; ++it) {
-                    const double mid = 0.5 * (lo + hi);
-                    (ch.disc_integral(mid) < target ? lo : hi) = mid;
+                const double su = double(i) / double(table_size);
+                const double target = su * su;
+                double rho_next = rho_prev, cdf_next = cdf_prev;
+                while (k < K) {
+                    const double q = double(k + 1) / double(K);
+                    rho_next = rmax * q * q;
+                    cdf_next = ch.disc_integral(rho_next) / norm_[c];
+                    if (cdf_next >= target) break;
+                    rho_prev = rho_next, cdf_prev = cdf_next;
+                    ++k;
                 }
-                table_[c][i] = 0.5 * (lo + hi);
+                const double f = cdf_next > cdf_prev ? std::clamp((target - cdf_prev) / (cdf_next - cdf_prev), 0.0, 1.0) : 0.0;
+                table_[c][i] = rho_prev + f * (rho_next - rho_prev);
             }
             table_[c][0] = 0;
             table_[c][table_size] = rmax;

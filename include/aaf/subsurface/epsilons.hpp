@@ -9,10 +9,11 @@
 //        `bits` bits reconstructed with FORMULAS.md §3.5
 //   ℓ  = 1/σ_tr,max, the shortest diffusion length over the channels (∞ for a lossless medium)
 //
-//   ε_g (shrink along the light direction) = min(h, ℓ/10)
+//   ε_g (shrink along the light direction) = h
 //        x'_o = x_o − ε_g(n_o − ω_l(ω_l·n_o)) moves x_o's projection by ε_g·sin θ: at a silhouette (sin θ → 1)
-//        by one texel, onto a texel the object covers fully; never by more than a tenth of a diffusion length,
-//        which bounds the change of the dipole sum it causes.
+//        by one texel, past the edge texels whose centre ray may miss the object. aaf measures the profile's
+//        distances from x_o itself (gather.hpp), so the shift moves only where the map is read and needs no
+//        cap by the diffusion length.
 //   ε_c (cube-map intrusion) = min(h + δ, ℓ/10)
 //        x'_o = x_o − ε_c n_o puts x_o below the surface by one footprint: the cube map's points are a texel
 //        apart, so the point of interest no longer coincides with (or lies in front of) the texel points around
@@ -58,7 +59,7 @@ template <class T>
     const T sin_theta = std::sqrt(std::max(T(0), T(1) - c * c));
     const T tan_theta = c > T(0) ? std::min(sin_theta / c, T(8)) : T(8);
     gather_epsilons<T> e;
-    e.shrink = std::min(footprint, ell / T(10));
+    e.shrink = footprint;
     e.intrude = std::min(footprint + delta, ell / T(10));
     e.bias = T(4) * delta + footprint * tan_theta;
     return e;

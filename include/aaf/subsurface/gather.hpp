@@ -6,9 +6,12 @@
 // For a pixel with surface point x_o and normal n_o:
 //  1. x'_o = x_o − ε_g(n_o − ω_l(ω_l·n_o))     (fix 1, shrink; `fix_shrink`)
 //     x'_o −= ε_c n_o                          (fix 2, cube-map intrusion; `fix_intrude`, cube maps only)
-//     x'_o is where the map is read (the disc's centre); distances to the profile are still measured from x_o.
-//     DEPARTURE (docs/DEVIATIONS.md): the write-up evaluates the profile at x'_o too; that moves the point
-//     ε_g·sin²θ into the medium, which at one texel is several z_r and dimmed a 57°-lit slab by 9 % (measured).
+//     x'_o is where the centre sample reads the map (centre-first sampling only; profile sampling has no centre
+//     sample, and the fixes do not apply to it). Distances to the profile are still measured from x_o.
+//     DEPARTURES (docs/DEVIATIONS.md): the write-up evaluates the profile at x'_o and centres the whole disc on it.
+//     Evaluating at x'_o moves the point ε_g·sin²θ into the medium (several z_r at one texel: a 57°-lit slab came
+//     out 9 % dark); centring profile-sampled discs on x'_o put the density's peak beside R_d's (+17 % and
+//     high variance on the same slab). Both measured with tests/test_subsurface_gather.cpp's flat-slab case.
 //  2. N samples in a disc of radius R perpendicular to the light's ray through x'_o, either centre-first with
 //     equal areas (the write-up's order: sample 0 at the centre, then a golden-angle spiral, rotated per pixel)
 //     or with radii drawn from R_d (radius_sampler). Each sample's light ray finds a texel; its surface point
@@ -16,11 +19,10 @@
 //  3. Weight: R_d(|x_s − x'_o|)/π (or the directional dipole S_d) × E·F_t × the sample's area on the surface
 //     (the disc cell's area carried along the light's rays onto the surface, so it includes the obliquity
 //     1/|n_i·ω_l| and, for a point light, the rays' divergence).
-//  4. Fix 3 (`fix_bias`): the centre texel counts as x_o's own surface (the point is lit there, and its cell may be
-//     integrated in closed form) only when the depths along the light's ray of x'_o and of the texel's point agree
-//     within ε_b. Without it (ε_b = 0) the comparison fails at random on any tilted or depth-quantised surface:
-//     shadow acne, here as speckles of point-sampled centres. Distances themselves are never biased: with the
-//     tangent-plane reconstruction a sample's depth is exact to δ, far below the dipole's z_r.
+//  4. Fix 3 (`fix_bias`, centre-first sampling): the centre sample's depth difference to x_o along the light's ray
+//     is reduced by ε_b (derived from the slope of the surface the map saw there and the depth precision): depth
+//     differences within the texel's slope and the stored depth's precision are noise, and at R_d's peak noise of
+//     a fraction of z_r shows as acne. Only the centre: further samples' depth differences are real distance.
 //  5. Banding fix (`exact_centre`, centre-first sampling only): the centre sample's cell, a disc of radius
 //     R/√N, is integrated in closed form (dipole::disc_integral) instead of point-sampled (see docs/SUBSURFACE.md).
 //
@@ -211,12 +213,14 @@ gather_stats gather_subsurface(const visible_points<typename light_map_view<Proj
                 }
                 const gather_epsilons<T> eps = epsilons_at(map, s, dip, p, n);
                 // ---- fixes 1 and 2
+                // The fixes relocate the centre sample only (centre-first sampling): the disc of the other samples
+                // stays centred on x_o's own ray, so profile sampling's density stays centred on R_d's peak.
                 vec3 xo = p;
-                vec3 wl = proj.to_light(xo);
-                if (s.fix_shrink) xo -= eps.shrink * (n - wl * glm::dot(wl, n));
-                if (is_cube && s.fix_intrude) xo -= eps.intrude * n;
-                wl = proj.to_light(xo);
-                const T bias = s.fix_bias ? eps.bias : T(0);
+                const vec3 wl = proj.to_light(p);
+                if (!importance) {
+                    if (s.fix_shrink) xo -= eps.shrink * (n - wl * glm::dot(wl, n));
+                    if (is_cube && s.fix_intrude) xo -= eps.intrude * n;
+                }
                 vec3 b1, b2;
                 detail::basis(wl, b1, b2);
                 const sample_key key = pixel_key(s.region, x, y, 0, s.light_index, s.frame_seed);
@@ -235,7 +239,7 @@ gather_stats gather_subsurface(const visible_points<typename light_map_view<Proj
                         area = cell_area;
                     }
                     ++l_samples;
-                    const vec3 ps = xo + T(rho * std::cos(phi)) * b1 + T(rho * std::sin(phi)) * b2;
+                    const vec3 ps = (i == 0 ? xo : p) + T(rho * std::cos(phi)) * b1 + T(rho * std::sin(phi)) * b2;
                     const map_point<T> m = proj.project(ps);
                     const map_texel<T> t = read_texel(map, m.face, std::ptrdiff_t(std::floor(m.texel.x)), std::ptrdiff_t(std::floor(m.texel.y)));
                     if (!t.valid || !(t.irradiance.x + t.irradiance.y + t.irradiance.z > T(0))) {
@@ -262,21 +266,38 @@ gather_stats gather_subsurface(const visible_points<typename light_map_view<Proj
                         const double dps = glm::length(ps - proj.light), dxs = glm::length(xs - proj.light);
                         jac *= std::abs(double(glm::dot(ray_dir, -wl))) * (dxs / dps) * (dxs / dps);
                     }
-                    // Centre cell in closed form (banding fix): only when the centre texel is x_o's own surface.
                     // Distances from the point itself: the fixes move where the map is read, not the point whose
                     // scattering is computed (moving x_o by ε_g sin²θ into the medium would dim R_d's peak).
                     const vec3 d = xs - p;
-                    const T along = glm::dot(d, ray_dir);
-                    const bool centre_exact = !importance && i == 0 && s.exact_centre && s.profile == profile_model::dipole &&
-                                              std::abs(along) <= bias + (is_cube && s.fix_intrude ? eps.intrude : T(0)) + proj.footprint(xo) * T(1e-3);
-                    if (centre_exact) {
-                        // Equal-area disc on the surface: radius ρ_c/√cos.
-                        const glm::dvec3 W = dip.disc_integral(rho_centre * std::sqrt(jac));
-                        sum += glm::dvec3(t.irradiance) * W / std::numbers::pi;
-                        ++l_exact;
-                        continue;
+                    double r = double(glm::length(d));
+                    if (!importance && i == 0) {
+                        // The centre sample: its depth difference to x_o is compared with the bias (fix 3), using the
+                        // slope of the surface the map saw there (the classical slope-scaled bias is the map
+                        // surface's slope, not the receiver's).
+                        const T along = glm::dot(d, ray_dir);
+                        T centre_bias = T(0);
+                        if (s.fix_bias) {
+                            centre_bias = s.bias_epsilon >= T(0)
+                                       ? s.bias_epsilon
+                                       : derive_epsilons<T>(p, proj.footprint(p), proj.far, map.near_plane,
+                                                            map.faces[0].positions.empty() ? map.depth_bits : 0u, dip.max_sigma_tr(),
+                                                            glm::dot(t.normal, wl)).bias;
+                            if (is_cube && s.fix_intrude) centre_bias += eps.intrude;  // x'_o was moved that far on purpose
+                        }
+                        const double depth = std::max(0.0, double(std::abs(along)) - double(centre_bias));
+                        if (s.exact_centre && s.profile == profile_model::dipole) {
+                            // Banding fix: the centre cell in closed form, a disc of the cell's area on the surface
+                            // (radius ρ_c/√cos) at the depth difference `depth` (FORMULAS.md §5.3's w_i), centred on x_o:
+                            // fix 1 only chose which texel's E·F_t stands for x_o's cell. The depth its lateral shift
+                            // adds on a tilted surface (≤ h·tan θ) is inside ε_b.
+                            const glm::dvec3 W = dip.disc_integral(rho_centre * std::sqrt(jac), depth);
+                            sum += glm::dvec3(t.irradiance) * W / std::numbers::pi;
+                            ++l_exact;
+                            continue;
+                        }
+                        const vec3 lateral = d - along * ray_dir;
+                        r = std::sqrt(double(glm::dot(lateral, lateral)) + depth * depth);
                     }
-                    const double r = double(glm::length(d));
                     glm::dvec3 f;
                     if (s.profile == profile_model::dipole) {
                         f = dip.profile(r) / std::numbers::pi;
