@@ -230,7 +230,12 @@ gather_stats gather_subsurface(const visible_points<typename light_map_view<Proj
                 for (std::uint32_t i = 0; i < N; ++i) {
                     double rho, phi, area;  // area: the sample's share of the disc, in the disc plane
                     if (importance) {
-                        rho = sampler.radius(int(i % 3), double(uv[i].x));
+                        // The channel from the first coordinate's thirds, the radius from what is left of it: each
+                        // channel's u stays uniform. (Channel i % 3 with stratified points gave each channel every
+                        // third stratum, a non-uniform u: −3.9 % on a skim-milk slab's blue channel, measured.)
+                        const double u3 = 3 * double(uv[i].x);
+                        const int channel = std::min(2, int(u3));
+                        rho = sampler.radius(channel, u3 - channel);
                         phi = 2 * std::numbers::pi * double(uv[i].y);
                         area = 1 / (N * sampler.pdf_area(rho));
                     } else {
