@@ -12,7 +12,8 @@
 //     Evaluating at x'_o moves the point ε_g·sin²θ into the medium (several z_r at one texel: a 57°-lit slab came
 //     out 9 % dark); centring profile-sampled discs on x'_o put the density's peak beside R_d's (+17 % and
 //     high variance on the same slab). Both measured with tests/test_subsurface_gather.cpp's flat-slab case.
-//  2. N samples in a disc of radius R perpendicular to the light's ray through x'_o, either centre-first with
+//  2. N samples in a disc of radius R perpendicular to the light's ray through x_o (the centre sample through
+//     x'_o), either centre-first with
 //     equal areas (the write-up's order: sample 0 at the centre, then a golden-angle spiral, rotated per pixel)
 //     or with radii drawn from R_d (radius_sampler). Each sample's light ray finds a texel; its surface point
 //     is the texel's point, or (`tangent_plane`) the ray's intersection with the texel's tangent plane.
@@ -129,7 +130,9 @@ inline double default_gather_radius(const rgb_dipole& d) {
 }
 
 /// The epsilons `gather_subsurface` uses at x_o (derived where the settings' value is negative, else the
-/// settings' value): exposed for tests and debug views.
+/// settings' value): exposed for tests and debug views. The `bias` returned here takes its slope from n_o;
+/// the gather derives the bias it applies from the normal of the centre texel it reads (the surface the map
+/// saw), which equals n_o wherever x_o lies on the lit surface.
 template <class Projection>
 [[nodiscard]] gather_epsilons<typename light_map_view<Projection>::T> epsilons_at(
     const light_map_view<Projection>& map, const gather_settings<typename light_map_view<Projection>::T>& s, const rgb_dipole& d,
