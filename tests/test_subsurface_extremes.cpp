@@ -158,6 +158,20 @@ TEST_CASE("subsurface bad input: named errors before any output, or documented r
         ss::gather_subsurface(vp, poisoned.view(), m, s, o);
         CHECK((std::isfinite(out.x) && std::isfinite(out.y) && std::isfinite(out.z) && out.x > 0));
     }
+    // Extreme but valid materials: no scattering (R_d ≡ 0), huge and tiny coefficients: finite, non-negative.
+    for (const auto& b : {ss::material<float>{glm::vec3(1), glm::vec3(0), 1.3f}, ss::material<float>{glm::vec3(1e30f), glm::vec3(1e30f), 1.3f},
+                          ss::material<float>{glm::vec3(1e-30f), glm::vec3(1e-30f), 1.3f}, ss::material<float>{glm::vec3(0), glm::vec3(1e-30f), 1e-6f},
+                          ss::material<float>{glm::vec3(1), glm::vec3(1), 1e6f}})
+        for (const auto mode : {ss::disc_sampling::centre_first, ss::disc_sampling::profile})
+            for (const auto model : {ss::profile_model::dipole, ss::profile_model::directional_dipole}) {
+                ss::gather_settings<float> s;
+                s.sampling = mode;
+                s.profile = model;
+                s.samples = 16;
+                ss::gather_subsurface(vp, sc.map.view(), b, s, o);
+                INFO("sigma_a " << b.sigma_a.x << " sigma_s' " << b.sigma_s_prime.x << " eta " << b.eta << " mode " << int(mode) << " model " << int(model));
+                CHECK((std::isfinite(out.x) && std::isfinite(out.y) && std::isfinite(out.z) && out.x >= 0 && out.y >= 0 && out.z >= 0));
+            }
     // A lossless material (σ_a = 0, Spectralon) is valid: finite, positive.
     ss::gather_subsurface(vp, sc.map.view(), ss::presets::spectralon<float>(), {}, o);
     CHECK((std::isfinite(out.x) && out.x > 0));

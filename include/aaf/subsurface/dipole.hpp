@@ -81,11 +81,16 @@ enum class boundary_term {
 
 /// The boundary term A(η) (FORMULAS.md §5.1, §8.4): 2.602 (classical) and 2.340 (moments) at η = 1.3.
 inline double boundary_A(double eta, boundary_term form) noexcept {
+    // The fit leaves [0, 1) far from η ≈ 1 (F_dr(10) > 1 gives A < 0: a virtual source inside the medium and a
+    // negative profile), so it is clamped there; the moments form stays in range by construction, but at
+    // extreme η its denominator 1 − 2C₁ underflows, hence the same cap on A.
+    constexpr double f_max = 1 - 1e-9;
     if (form == boundary_term::classical) {
-        const double f = diffuse_fresnel_reflectance(eta);
+        const double f = std::clamp(diffuse_fresnel_reflectance(eta), 0.0, f_max);
         return (1 + f) / (1 - f);
     }
-    return (1 + 3 * fresnel_moment(eta, 2)) / (1 - 2 * fresnel_moment(eta, 1));
+    const double two_c1 = std::clamp(2 * fresnel_moment(eta, 1), 0.0, f_max);
+    return std::min((1 + 3 * fresnel_moment(eta, 2)) / (1 - two_c1), 2 / (1 - f_max));
 }
 
 /// The dipole of one colour channel. Lengths in the material's unit; R_d in 1/length².
@@ -158,7 +163,7 @@ struct dipole {
     /// The radius below which a fraction `fraction` ∈ (0, 1) of the total lies (bisection on the closed form).
     [[nodiscard]] double radius_of_fraction(double fraction) const noexcept {
         const double target = std::clamp(fraction, 0.0, 1.0) * total();
-        double lo = 0, hi = z_v;
+        double lo = 0, hi = std::max({z_v, z_r, 1e-300});
         while (disc_integral(hi) < target && hi < 1e300) hi *= 2;
         for (int i = 0; i < 200 && hi - lo > 1e-15 * hi; ++i) {
             const double mid = 0.5 * (lo + hi);
@@ -213,6 +218,14 @@ public:
             const double rmax = std::isinf(radius) ? ch.radius_of_fraction(1 - 1e-6) : radius;
             norm_[c] = ch.disc_integral(rmax);
             table_[c].resize(table_size + 1);
+            if (!(norm_[c] > 0) || !std::isfinite(norm_[c]) || !(rmax > 0) || !std::isfinite(rmax)) {
+                // No profile to follow (σ_s′ = 0, or an underflowing one): uniform over the disc's area, which the
+                // s = √u table gives with ρ = R·s; pdf_area counts it as 1/(πR²).
+                uniform_[c] = true;
+                const double r_uniform = std::isfinite(radius) && radius > 0 ? radius : 1.0;
+                for (std::size_t i = 0; i <= table_size; ++i) table_[c][i] = r_uniform * double(i) / double(table_size);
+                continue;
+            }
             // Invert the closed-form CDF on a fine forward grid ρ_k = rmax·(k/K)² (dense where R_d peaks), then
             // interpolate: 8·table_size evaluations instead of a root search per entry.
             const std::size_t K = 8 * table_size;
@@ -253,7 +266,14 @@ public:
     /// make the drawn density deviate by O(1/table_size²) within a piece.
     [[nodiscard]] double pdf_area(double rho) const noexcept {
         double p = 0;
-        for (int c = 0; c < 3; ++c) p += dipole_.channel[c].profile(rho) / norm_[c];
+        for (int c = 0; c < 3; ++c) {
+            if (uniform_[c]) {
+                const double r_uniform = table_[c].back();
+                p += rho <= r_uniform ? 1 / (std::numbers::pi * r_uniform * r_uniform) : 0.0;
+            } else {
+                p += dipole_.channel[c].profile(rho) / norm_[c];
+            }
+        }
         return p / 3;
     }
     [[nodiscard]] double max_radius() const noexcept { return radius_; }
@@ -263,6 +283,7 @@ private:
     rgb_dipole dipole_;
     double radius_ = 0;
     double norm_[3] = {1, 1, 1};
+    bool uniform_[3] = {false, false, false};
     std::vector<double> table_[3];
 };
 

@@ -240,7 +240,12 @@ gather_stats gather_subsurface(const visible_points<typename light_map_view<Proj
                         const int channel = std::min(2, int(u3));
                         rho = sampler.radius(channel, u3 - channel);
                         phi = 2 * std::numbers::pi * double(uv[i].y);
-                        area = 1 / (N * sampler.pdf_area(rho));
+                        const double pdf = sampler.pdf_area(rho);
+                        if (!(pdf > 0) || !std::isfinite(pdf) || !std::isfinite(rho)) {  // underflowed tails: no estimate
+                            ++l_samples;
+                            continue;
+                        }
+                        area = 1 / (N * pdf);
                     } else {
                         rho = i == 0 ? 0.0 : R * std::sqrt((i + 0.5) / N);
                         phi = rotation + i * 2.399963229728653;  // golden angle
