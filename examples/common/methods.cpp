@@ -14,6 +14,7 @@ namespace {
 std::vector<method_family> registry() {
     std::vector<method_family> families;
     families.push_back(shadow_methods());
+    families.push_back(variant_methods());
     return families;
 }
 
