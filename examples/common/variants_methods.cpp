@@ -98,6 +98,59 @@ method peer_method(std::string name, peer p, std::string description) {
     return m;
 }
 
+/// Progressive aaf: `knob` passes of 9 stratified samples each into one aaf::progressive_shadow, μ matched
+/// to each pixel's accumulated samples (mu_schedule::matched_samples, μ_1 = 2); the image after the last
+/// pass, the time and rays of all passes.
+method progressive_method() {
+    json j;
+    j["description"] = "progressive aaf: passes of 9 stratified samples accumulated per pixel, each pixel's mu raised until n(mu) matches its samples";
+    j["knob"] = "passes";
+    j["samples_per_pass"] = 9;
+    j["mu_first_pass"] = 2;
+    j["schedule"] = "matched_samples";
+    j["offsets"] = "image";
+    j["guides"] = {"normals", "ids"};
+    j["tracer"] = "BVH nearest and farthest occluder";
+    method m{
+        .name = "aaf_progressive",
+        .family = "variants",
+        .what = quantity::shadow,
+        .knob = "passes",
+        .sweep = {1, 2, 4, 8, 16},
+        .quick_sweep = {1, 2},
+        .doubling_sweep = false,
+        .default_knob = 4,
+        .help = "progressive aaf (aaf::progressive_shadow): 9 samples per pass, per-pixel mu matched to its samples; knob = passes",
+        .settings = std::move(j),
+        .render = {},
+    };
+    m.render = [](const render_inputs& in, double knob) {
+        const gbuffer_images& g = in.g;
+        const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{g.positions.cview(), g.normals.cview(), g.pixel_size.cview(),
+                                                                          g.ids.cview()};
+        aaf::progressive_settings<float> ps;
+        ps.frame.sampling.initial_samples = 9;
+        ps.frame.sampling.frame_seed = in.seed;
+        ps.frame.radiance = in.s.radiance;
+        aaf::progressive_shadow<float> prog;
+        prog.reset(in.s.width, in.s.height);  // allocation is not part of a frame
+        method_output out;
+        out.image = aaf::image<float>(in.s.width, in.s.height);
+        double rays_ms = 0, formulas_ms = 0, filter_ms = 0;
+        const auto passes = static_cast<std::uint32_t>(knob);
+        for (std::uint32_t p = 0; p < passes; ++p) {
+            const aaf::frame_report r = prog.add_pass(gb, in.s.light, in.tracer, {out.image.view()}, ps, in.pool);
+            out.total_ms += r.total_ms;
+            rays_ms += r.initial_ms, formulas_ms += r.formulas_ms, filter_ms += r.filter_ms;
+        }
+        out.rays = prog.rays();
+        out.stages_ms = {{"rays", rays_ms}, {"formulas", formulas_ms}, {"filter", filter_ms}};
+        out.point_settings = {{"passes", passes}, {"samples_per_pixel", 9 * passes}};
+        return out;
+    };
+    return m;
+}
+
 peer atrous_peer(std::uint32_t iterations, float luminance_sigma) {
     peer p;
     p.atrous.iterations = iterations;
@@ -131,6 +184,7 @@ method_family variant_methods() {
         peer_method("mc_bilateral", bilateral_peer(1),
                     "stratified MC at spp, then a joint bilateral filter (sigma 1 px, normal/plane/ID stops; the best "
                     "bilateral width on cornell and plant)"),
+        progressive_method(),
     };
     const char* sweep = std::getenv("AAF_VARIANTS_SWEEP");
     if (sweep != nullptr && std::string(sweep) == "1") {

@@ -7,3 +7,4 @@
 #include "variants/atrous.hpp"
 #include "variants/bilateral.hpp"
 #include "variants/edge_stops.hpp"
+#include "variants/progressive.hpp"
