@@ -15,6 +15,7 @@
 #include "../area_light.hpp"
 #include "../executor.hpp"
 #include "../filter.hpp"
+#include "../footprint.hpp"
 #include "../formulas.hpp"
 #include "../gather.hpp"
 #include "../guides.hpp"
@@ -154,8 +155,15 @@ public:
             filter_visibility<T>(ws_.raw_visibility.cview(), ws_.filter_width.cview(), gb.pixel_size, ws_.filtered.view(),
                                  ws_.scratch.view(), g, settings.frame.filter, light.normal(), exec);
         } else {
+            const_image_view<T> footprint = gb.pixel_size;  // tilt-aware widths, as render_frame
+            if (settings.frame.filter.footprint != pixel_footprint::camera) {
+                if (ws_.footprint.width() != w || ws_.footprint.height() != h) ws_.footprint.reset(w, h);
+                surface_footprint<T>(gb.positions, gb.normals, gb.pixel_size, ws_.footprint.view(), settings.frame.filter.footprint,
+                                     settings.frame.filter.normal_threshold_degrees, exec);
+                footprint = ws_.footprint.cview();
+            }
             guides<const_image_view<glm::vec<3, T>>, Ids, no_guide> g{gb.normals, gb.ids, {}};
-            filter_visibility<T>(ws_.raw_visibility.cview(), ws_.filter_width.cview(), gb.pixel_size, ws_.filtered.view(),
+            filter_visibility<T>(ws_.raw_visibility.cview(), ws_.filter_width.cview(), footprint, ws_.filtered.view(),
                                  ws_.scratch.view(), g, settings.frame.filter, light.normal(), exec);
         }
         report.filter_ms = detail::ms_since(t0);
