@@ -17,6 +17,7 @@ namespace {
 std::vector<method_family> registry() {
     std::vector<method_family> families;
     families.push_back(shadow_methods());
+    families.push_back(variant_methods());
     families.push_back(shadow_map_methods());
     families.push_back(occlusion_methods());
     return families;

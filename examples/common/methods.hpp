@@ -109,5 +109,7 @@ struct method_family {
 
 /// The families, each defined in its own file: the shadow family (Monte Carlo, aaf and its presets) here.
 [[nodiscard]] method_family shadow_methods();
+/// The variants family (variants_methods.cpp): image-space peers applied to Monte Carlo, progressive aaf.
+[[nodiscard]] method_family variant_methods();
 
 }  // namespace aaf_examples

@@ -66,6 +66,7 @@ struct aaf_variant {
     bool guides = true;
     aaf::frame_preset preset = aaf::frame_preset::balanced;
     aaf::shadow_query adaptive_query = aaf::sampling_settings{}.adaptive_query;  ///< the library's default unless named
+    aaf::pixel_footprint footprint = aaf::pixel_footprint::camera;               ///< tilt-aware widths unless camera
 };
 
 /// The settings of one point of an aaf or preset method.
@@ -83,6 +84,7 @@ aaf::frame_settings<float> aaf_settings(const aaf_variant& v, double knob, std::
     if (v.knob != k::preset) {
         fs.filter.space = v.space;
         fs.sampling.adaptive_query = v.adaptive_query;
+        fs.filter.footprint = v.footprint;
         // render_frame always filters with normals (and IDs when the G-buffer has them): a threshold of
         // 180° accepts every finite normal, which is the normal guide switched off.
         if (!v.guides) fs.filter.normal_threshold_degrees = 180;
@@ -118,6 +120,9 @@ json aaf_settings_json(const aaf_variant& v, const std::string& description) {
     if (fs.sampling.adaptive)
         j["adaptive_query"] = fs.sampling.adaptive_query == aaf::shadow_query::visibility ? "visibility" : "distances";
     j["offsets"] = fs.filter.space == aaf::offset_space::light_plane ? "light_plane" : "image";
+    j["footprint"] = fs.filter.footprint == aaf::pixel_footprint::camera         ? "camera"
+                     : fs.filter.footprint == aaf::pixel_footprint::surface_area ? "surface_area"
+                                                                                 : "surface_max";
     json guides = json::array();
     if (v.guides) guides.push_back("normals"), guides.push_back("ids");
     if (fs.filter.space == aaf::offset_space::light_plane) guides.push_back("positions");
@@ -208,6 +213,10 @@ method_family shadow_methods() {
         aaf_method("aaf_no_guides", "aaf", {.guides = false}, "as aaf_adaptive without normal and ID guides"),
         aaf_method("aaf_refined_slopes", "aaf", {.adaptive_query = aaf::shadow_query::distances},
                    "as aaf_adaptive with adaptive rays that also find occluder distances and refine the slopes (shadow_query::distances)"),
+        aaf_method("aaf_tilt_area", "aaf", {.footprint = aaf::pixel_footprint::surface_area},
+                   "as aaf_adaptive with tilt-aware widths: beta over the pixel's footprint on its surface, sqrt(s_x s_y)"),
+        aaf_method("aaf_tilt_max", "aaf", {.footprint = aaf::pixel_footprint::surface_max},
+                   "as aaf_adaptive with tilt-aware widths: beta over the longer side of the pixel's footprint on its surface"),
         aaf_method("preset_fast", "preset", {.knob = k::preset, .preset = aaf::frame_preset::fast}, "aaf::preset(frame_preset::fast)"),
         aaf_method("preset_balanced", "preset", {.knob = k::preset, .preset = aaf::frame_preset::balanced},
                    "aaf::preset(frame_preset::balanced)"),

@@ -7,6 +7,7 @@
 #include "debug.hpp"
 #include "executor.hpp"
 #include "filter.hpp"
+#include "footprint.hpp"
 #include "formulas.hpp"
 #include "gather.hpp"
 #include "guides.hpp"

@@ -18,6 +18,7 @@
 #include "area_light.hpp"
 #include "executor.hpp"
 #include "filter.hpp"
+#include "footprint.hpp"
 #include "formulas.hpp"
 #include "gather.hpp"
 #include "guides.hpp"
@@ -50,6 +51,7 @@ struct frame_workspace {
     image<T> raw_visibility;                 ///< unfiltered visibility (NaN where undefined)
     image<T> filtered;
     image<T> scratch;
+    image<T> footprint;                      ///< the filter's pixel footprint (filter_settings::footprint other than camera)
 
     void resize(std::size_t w, std::size_t h) {
         if (stats.width() == w && stats.height() == h) return;
@@ -61,6 +63,7 @@ struct frame_workspace {
         raw_visibility.reset(w, h);
         filtered.reset(w, h);
         scratch.reset(w, h);
+        footprint = {};
     }
 };
 
@@ -246,8 +249,16 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
         filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), gb.pixel_size, ws.filtered.view(),
                              ws.scratch.view(), g, settings.filter, light.normal(), exec);
     } else {
+        // Tilt-aware widths: β over the pixel's footprint on its own surface instead of the camera's d.
+        const_image_view<T> footprint = gb.pixel_size;
+        if (settings.filter.footprint != pixel_footprint::camera) {
+            if (ws.footprint.width() != w || ws.footprint.height() != h) ws.footprint.reset(w, h);
+            surface_footprint<T>(gb.positions, gb.normals, gb.pixel_size, ws.footprint.view(), settings.filter.footprint,
+                                 settings.filter.normal_threshold_degrees, exec);
+            footprint = ws.footprint.cview();
+        }
         guides<const_image_view<glm::vec<3, T>>, Ids, no_guide> g{gb.normals, gb.ids, {}};
-        filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), gb.pixel_size, ws.filtered.view(),
+        filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), footprint, ws.filtered.view(),
                              ws.scratch.view(), g, settings.filter, light.normal(), exec);
     }
     report.filter_ms = detail::ms_since(t0);

@@ -74,6 +74,15 @@ enum class offset_space {
     tangent_plane,
 };
 
+/// Which pixel footprint turns the filter width β (world units) into pixels in image space (footprint.hpp).
+enum class pixel_footprint {
+    camera,        ///< the G-buffer's pixel_size d, a plane facing the camera (the paper's β/d); the default
+    /// √(s_x s_y), the pixel's area on its own surface: at a grazing angle θ a pixel spans d/cos θ along
+    /// the tilt, so the kernel narrows by √cos θ there instead of over-blurring (tilt-aware widths)
+    surface_area,
+    surface_max,   ///< max(s_x, s_y): the footprint's longer side (narrower still; never over-blurs either axis)
+};
+
 /// The separable Gaussian filter and the slope-spreading pass.
 template <class T = float>
 struct filter_settings {
@@ -83,6 +92,9 @@ struct filter_settings {
     T normal_threshold_degrees = 20;           ///< reject neighbours whose normal differs more; (0, 180], authors 20
     bool spread_slopes = true;                 ///< give unoccluded pixels their occluded neighbours' slopes (§1.12)
     std::uint32_t spread_radius = 10;          ///< radius of that spreading in pixels; [0, 1024], authors 10
+    /// Image-space offsets only: the footprint β is divided by (render_frame computes it with
+    /// surface_footprint from the G-buffer's positions and normals when it is not `camera`).
+    pixel_footprint footprint = pixel_footprint::camera;
 };
 
 /// Everything one frame needs besides buffers, light and tracer.
@@ -166,6 +178,8 @@ void validate(const filter_settings<T>& s, const char* function = "validate") {
     require(s.normal_threshold_degrees > T(0) && s.normal_threshold_degrees <= T(180), function,
             "settings.filter.normal_threshold_degrees", "must be in (0, 180] (got " + std::to_string(s.normal_threshold_degrees) + ")");
     require(s.spread_radius <= 1024, function, "settings.filter.spread_radius", "must be <= 1024 (got " + std::to_string(s.spread_radius) + ")");
+    require(s.footprint == pixel_footprint::camera || s.footprint == pixel_footprint::surface_area || s.footprint == pixel_footprint::surface_max,
+            function, "settings.filter.footprint", "must be a pixel_footprint (got " + std::to_string(static_cast<int>(s.footprint)) + ")");
 }
 
 template <class T>

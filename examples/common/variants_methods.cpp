@@ -1,0 +1,202 @@
+// SPDX-License-Identifier: MIT
+// The variants family of the method registry: the image-space denoisers a renderer author would apply to
+// stratified Monte Carlo instead of aaf (the guided à-trous filter of SVGF, a joint bilateral filter), at
+// every spp, with the settings chosen by the parameter sweep of docs/RESULTS.md ("Peers and variants").
+// With AAF_VARIANTS_SWEEP=1 in the environment the sweep's candidate settings are registered too
+// (atrous_i<iterations>_l<luminance sigma, 0 = off>, bilateral_s<sigma px>), so aaf-tradeoff can rerun it.
+
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <string>
+#include <utility>
+
+#include <aaf/variants.hpp>
+
+#include "common/methods.hpp"
+
+namespace aaf_examples {
+
+namespace {
+
+using json = nlohmann::json;
+
+/// Which peer and its fixed settings.
+struct peer {
+    enum class kind { atrous, bilateral } what = kind::atrous;
+    aaf::atrous_settings<float> atrous{};
+    aaf::bilateral_settings<float> bilateral{};
+    bool luminance = true;  ///< à-trous: the variance-driven luminance stop (variance from estimate_mean_variance)
+};
+
+json peer_json(const peer& p, const std::string& description) {
+    json j;
+    j["description"] = description;
+    j["input"] = "mc_stratified at the knob's spp (same samples as mc_stratified, seed and pass 0)";
+    j["knob"] = "spp";
+    j["guides"] = {"normals", "ids", "positions"};
+    if (p.what == peer::kind::atrous) {
+        j["filter"] = "guided a-trous (5x5 B3, step doubling)";
+        j["iterations"] = p.atrous.iterations;
+        j["normal_power"] = p.atrous.edges.normal_power;
+        j["plane_sigma"] = p.atrous.edges.plane_sigma;
+        j["luminance_stop"] = p.luminance;
+        if (p.luminance) {
+            j["luminance_sigma"] = p.atrous.luminance_sigma;
+            j["variance"] = "Bernoulli m(1-m)/spp of the 3x3 same-ID mean (aaf::estimate_mean_variance)";
+        }
+    } else {
+        j["filter"] = "joint bilateral (2-D Gaussian with G-buffer edge stops)";
+        j["sigma_pixels"] = p.bilateral.sigma_pixels;
+        j["truncation"] = p.bilateral.truncation;
+        j["normal_power"] = p.bilateral.edges.normal_power;
+        j["plane_sigma"] = p.bilateral.edges.plane_sigma;
+    }
+    return j;
+}
+
+method peer_method(std::string name, peer p, std::string description) {
+    method m{
+        .name = std::move(name),
+        .family = "variants",
+        .what = quantity::shadow,
+        .knob = "spp",
+        .sweep = {1, 2, 4, 8, 16, 32, 64, 128},
+        .quick_sweep = {1, 4},
+        .doubling_sweep = false,
+        .default_knob = 4,
+        .help = description,
+        .settings = peer_json(p, description),
+        .render = {},
+    };
+    m.render = [p](const render_inputs& in, double knob) {
+        const auto spp = static_cast<std::uint32_t>(knob);
+        mc_result mc = render_mc(in.s, in.g, in.tracer, {.pattern = aaf::sample_pattern::stratified, .spp = spp, .seed = in.seed, .pass = 0}, in.pool);
+        const auto t0 = clock_type::now();
+        const gbuffer_images& g = in.g;
+        const aaf::guides guides{g.normals.cview(), g.ids.cview(), g.positions.cview()};
+        method_output out;
+        out.image = aaf::image<float>(in.s.width, in.s.height);
+        if (p.what == peer::kind::atrous) {
+            aaf::image<float> scratch(in.s.width, in.s.height), variance;
+            if (p.luminance) {
+                variance.reset(in.s.width, in.s.height);
+                aaf::estimate_mean_variance<float>(mc.visibility, static_cast<float>(spp), variance.view(), guides, in.pool);
+            }
+            aaf::atrous_filter<float>(mc.visibility, variance.cview(), g.pixel_size, out.image.view(), scratch.view(), guides, p.atrous, in.pool);
+        } else {
+            aaf::bilateral_filter<float>(mc.visibility, g.pixel_size, out.image.view(), guides, p.bilateral, in.pool);
+        }
+        const double filter_ms = ms_since(t0);
+        for (std::size_t i = 0; i < out.image.size(); ++i)  // displayable, as mc_stratified: sky 1
+            if (!g.surface(i)) out.image.data()[i] = 1.0f;
+        out.total_ms = mc.total_ms + filter_ms;
+        out.rays = mc.rays;
+        out.stages_ms = {{"rays", mc.rays_ms}, {"filter", filter_ms}};
+        return out;
+    };
+    return m;
+}
+
+/// Progressive aaf: `knob` passes of 9 stratified samples each into one aaf::progressive_shadow, μ matched
+/// to each pixel's accumulated samples (mu_schedule::matched_samples, μ_1 = 2); the image after the last
+/// pass, the time and rays of all passes.
+method progressive_method() {
+    json j;
+    j["description"] = "progressive aaf: passes of 9 stratified samples accumulated per pixel, each pixel's mu raised until n(mu) matches its samples";
+    j["knob"] = "passes";
+    j["samples_per_pass"] = 9;
+    j["mu_first_pass"] = 2;
+    j["schedule"] = "matched_samples";
+    j["offsets"] = "image";
+    j["guides"] = {"normals", "ids"};
+    j["tracer"] = "BVH nearest and farthest occluder";
+    method m{
+        .name = "aaf_progressive",
+        .family = "variants",
+        .what = quantity::shadow,
+        .knob = "passes",
+        .sweep = {1, 2, 4, 8, 16},
+        .quick_sweep = {1, 2},
+        .doubling_sweep = false,
+        .default_knob = 4,
+        .help = "progressive aaf (aaf::progressive_shadow): 9 samples per pass, per-pixel mu matched to its samples; knob = passes",
+        .settings = std::move(j),
+        .render = {},
+    };
+    m.render = [](const render_inputs& in, double knob) {
+        const gbuffer_images& g = in.g;
+        const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{g.positions.cview(), g.normals.cview(), g.pixel_size.cview(),
+                                                                          g.ids.cview()};
+        aaf::progressive_settings<float> ps;
+        ps.frame.sampling.initial_samples = 9;
+        ps.frame.sampling.frame_seed = in.seed;
+        ps.frame.radiance = in.s.radiance;
+        aaf::progressive_shadow<float> prog;
+        prog.reset(in.s.width, in.s.height);  // allocation is not part of a frame
+        method_output out;
+        out.image = aaf::image<float>(in.s.width, in.s.height);
+        double rays_ms = 0, formulas_ms = 0, filter_ms = 0;
+        const auto passes = static_cast<std::uint32_t>(knob);
+        for (std::uint32_t p = 0; p < passes; ++p) {
+            const aaf::frame_report r = prog.add_pass(gb, in.s.light, in.tracer, {out.image.view()}, ps, in.pool);
+            out.total_ms += r.total_ms;
+            rays_ms += r.initial_ms, formulas_ms += r.formulas_ms, filter_ms += r.filter_ms;
+        }
+        out.rays = prog.rays();
+        out.stages_ms = {{"rays", rays_ms}, {"formulas", formulas_ms}, {"filter", filter_ms}};
+        out.point_settings = {{"passes", passes}, {"samples_per_pixel", 9 * passes}};
+        return out;
+    };
+    return m;
+}
+
+peer atrous_peer(std::uint32_t iterations, float luminance_sigma) {
+    peer p;
+    p.atrous.iterations = iterations;
+    p.luminance = luminance_sigma > 0;
+    if (p.luminance) p.atrous.luminance_sigma = luminance_sigma;
+    return p;
+}
+
+peer bilateral_peer(float sigma) {
+    peer p;
+    p.what = peer::kind::bilateral;
+    p.bilateral.sigma_pixels = sigma;
+    return p;
+}
+
+}  // namespace
+
+method_family variant_methods() {
+    method_family f;
+    // Settings from the sweep of docs/RESULTS.md ("Peers and variants"): every candidate at 1-64 spp on
+    // cornell and plant, ranked by the rays each needs to reach aaf_adaptive's error at mu = 2. Without
+    // the luminance stop, and for the bilateral filter at any width, the peers keep a bias floor (they blur
+    // across the visibility edges no G-buffer edge marks: the light plane's line on the walls, contact
+    // shadows), so only narrow settings are registered.
+    f.methods = {
+        peer_method("mc_atrous", atrous_peer(2, 2),
+                    "stratified MC at spp, then the guided a-trous filter (SVGF's spatial part): 2 iterations, "
+                    "normal/plane/ID stops, luminance stop sigma_l = 2 (best on cornell)"),
+        peer_method("mc_atrous_l4", atrous_peer(2, 4),
+                    "as mc_atrous with SVGF's luminance stop sigma_l = 4 (best on plant)"),
+        peer_method("mc_bilateral", bilateral_peer(1),
+                    "stratified MC at spp, then a joint bilateral filter (sigma 1 px, normal/plane/ID stops; the best "
+                    "bilateral width on cornell and plant)"),
+        progressive_method(),
+    };
+    const char* sweep = std::getenv("AAF_VARIANTS_SWEEP");
+    if (sweep != nullptr && std::string(sweep) == "1") {
+        for (std::uint32_t it = 1; it <= 5; ++it)
+            for (float lum : {0.0f, 2.0f, 4.0f, 8.0f})
+                f.methods.push_back(peer_method("atrous_i" + std::to_string(it) + "_l" + std::to_string(static_cast<int>(lum)),
+                                                atrous_peer(it, lum), "sweep candidate of the a-trous peer"));
+        for (float s : {1.0f, 1.5f, 2.0f, 3.0f, 4.0f, 6.0f})
+            f.methods.push_back(peer_method("bilateral_s" + std::to_string(static_cast<int>(s * 10)), bilateral_peer(s),
+                                            "sweep candidate of the bilateral peer (sigma in tenths of a pixel)"));
+    }
+    return f;
+}
+
+}  // namespace aaf_examples

@@ -1,0 +1,95 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+// A pixel's footprint on its receiver surface, for tilt-aware image-space filter widths: the camera's
+// pixel size d (pinhole_pixel_size) is the footprint on a plane facing the camera, but a surface seen at a
+// grazing angle θ spans d/cos θ per pixel along its tilt, so β/d pixels over-blur it by 1/cos θ there.
+// Measured from the G-buffer's own positions: the distance between a pixel's neighbours on the same surface.
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <type_traits>
+#include <utility>
+
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
+#include "config.hpp"
+#include "executor.hpp"
+#include "image_view.hpp"
+#include "settings.hpp"
+
+namespace aaf {
+inline namespace v0 {
+
+namespace detail {
+
+/// World distance per pixel step along one axis at pixel (x, y): half the distance between the two
+/// neighbours on the same surface (finite position, normal within the cosine threshold), or the one-sided
+/// distance when only one qualifies; 0 when neither does.
+template <class T>
+[[nodiscard]] T surface_step(const_image_view<glm::vec<3, T>> positions, const_image_view<glm::vec<3, T>> normals, std::size_t x,
+                             std::size_t y, bool horizontal, T cos_threshold) noexcept {
+    const std::size_t pos = horizontal ? x : y, extent = horizontal ? positions.width() : positions.height();
+    const glm::vec<3, T> n = normals(x, y);
+    const auto at = [&](std::size_t j) { return horizontal ? std::pair{j, y} : std::pair{x, j}; };
+    const auto same_surface = [&](std::size_t j) {
+        const auto [nx, ny] = at(j);
+        const glm::vec<3, T> q = positions(nx, ny);
+        return std::isfinite(q.x + q.y + q.z) && glm::dot(n, normals(nx, ny)) >= cos_threshold;  // NaN normal: false
+    };
+    const bool lo = pos > 0 && same_surface(pos - 1), hi = pos + 1 < extent && same_surface(pos + 1);
+    const auto p = [&](std::size_t j) {
+        const auto [nx, ny] = at(j);
+        return positions(nx, ny);
+    };
+    if (lo && hi) return glm::length(p(pos + 1) - p(pos - 1)) / T(2);
+    if (lo) return glm::length(p(pos) - p(pos - 1));
+    if (hi) return glm::length(p(pos + 1) - p(pos));
+    return T(0);
+}
+
+}  // namespace detail
+
+/// Writes each pixel's footprint for the filter's β/d (filter_settings::footprint): `camera` copies
+/// `pixel_size`; `surface_area` is √(s_x s_y) and `surface_max` is max(s_x, s_y), with s_x, s_y the world
+/// distances per pixel step along the image axes on the pixel's own surface (neighbours with a finite
+/// position and a normal within `normal_threshold_degrees`), each at least `pixel_size` (a surface is
+/// never seen more than face-on) and `pixel_size` itself where no neighbour qualifies. Pixels with a
+/// non-finite position or normal, or a pixel size that is not finite and positive, are copied.
+template <class T, class Exec = sequential_executor>
+void surface_footprint(std::type_identity_t<const_image_view<glm::vec<3, T>>> positions,
+                       std::type_identity_t<const_image_view<glm::vec<3, T>>> normals, std::type_identity_t<const_image_view<T>> pixel_size,
+                       image_view<T> output, pixel_footprint mode, T normal_threshold_degrees = T(20), Exec&& exec = {}) {
+    constexpr const char* fn = "surface_footprint";
+    detail::require_nonempty(fn, "positions", positions);
+    const std::size_t w = positions.width(), h = positions.height();
+    detail::require_size(fn, "normals", normals, w, h);
+    detail::require_size(fn, "pixel_size", pixel_size, w, h);
+    detail::require_size(fn, "output", output, w, h);
+    if (!(normal_threshold_degrees > T(0) && normal_threshold_degrees <= T(180)))
+        detail::throw_invalid(fn, "`normal_threshold_degrees` must be in (0, 180] (got " + std::to_string(normal_threshold_degrees) + ")");
+    if (mode != pixel_footprint::camera && mode != pixel_footprint::surface_area && mode != pixel_footprint::surface_max)
+        detail::throw_invalid(fn, "`mode` is not a pixel_footprint");
+    if (output.bytes() == pixel_size.bytes()) detail::throw_invalid(fn, "`output` must not alias `pixel_size`");
+    const T cos_threshold = std::cos(normal_threshold_degrees * T(3.14159265358979323846) / T(180));
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                const T d = pixel_size(x, y);
+                const glm::vec<3, T> p = positions(x, y), n = normals(x, y);
+                if (mode == pixel_footprint::camera || !(d > T(0)) || !std::isfinite(d) || !std::isfinite(p.x + p.y + p.z + n.x + n.y + n.z)) {
+                    output(x, y) = d;
+                    continue;
+                }
+                const T sx = std::max(detail::surface_step(positions, normals, x, y, true, cos_threshold), d);
+                const T sy = std::max(detail::surface_step(positions, normals, x, y, false, cos_threshold), d);
+                const T f = mode == pixel_footprint::surface_area ? std::sqrt(sx * sy) : std::max(sx, sy);
+                output(x, y) = std::isfinite(f) ? f : d;
+            }
+    });
+}
+
+}  // namespace v0
+}  // namespace aaf

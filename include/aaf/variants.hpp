@@ -1,0 +1,10 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+// Umbrella header of aaf's filter variants and peers (include/aaf/variants/): the image-space denoisers
+// users compare aaf with (guided à-trous, joint bilateral) and consistent progressive refinement.
+// <aaf/aaf.hpp> stays the core's; include this one beside it.
+
+#include "variants/atrous.hpp"
+#include "variants/bilateral.hpp"
+#include "variants/edge_stops.hpp"
+#include "variants/progressive.hpp"
