@@ -47,6 +47,7 @@ struct frame_workspace {
     image<T> raw_visibility;                 ///< unfiltered visibility (NaN where undefined)
     image<T> filtered;
     image<T> scratch;
+    filter_workspace<T> filter;              ///< the filter's working memory (internal)
 
     void resize(std::size_t w, std::size_t h) {
         if (stats.width() == w && stats.height() == h) return;
@@ -178,11 +179,11 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
     if (settings.filter.space == offset_space::light_plane) {
         guides<const_image_view<glm::vec<3, T>>, Ids, const_image_view<glm::vec<3, T>>> g{gb.normals, gb.ids, gb.positions};
         filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), gb.pixel_size, ws.filtered.view(),
-                             ws.scratch.view(), g, settings.filter, light.normal(), exec);
+                             ws.scratch.view(), ws.filter, g, settings.filter, light.normal(), exec);
     } else {
         guides<const_image_view<glm::vec<3, T>>, Ids, no_guide> g{gb.normals, gb.ids, {}};
         filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), gb.pixel_size, ws.filtered.view(),
-                             ws.scratch.view(), g, settings.filter, light.normal(), exec);
+                             ws.scratch.view(), ws.filter, g, settings.filter, light.normal(), exec);
     }
     report.filter_ms = detail::ms_since(t0);
     if (!progress(0.95)) return report.cancelled = true, report;
