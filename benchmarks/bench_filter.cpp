@@ -102,10 +102,11 @@ template <class T>
 void run_filter(benchmark::State& state, const synthetic_frame<T>& f, const aaf::filter_settings<T>& fs,
                 std::size_t threads, bool with_guides) {
     aaf::image<T> out(f.w, f.h), scratch(f.w, f.h);
+    aaf::filter_workspace<T> workspace;  // as a frame loop (frame_workspace) keeps it: no allocation per call
     aaf::thread_pool pool(threads);
     const auto run = [&](const auto& g) {
-        aaf::filter_visibility<T>(f.visibility.cview(), f.beta.cview(), f.pixel_size.cview(), out.view(), scratch.view(), g,
-                                  fs, {T(0), T(1), T(0)}, pool);
+        aaf::filter_visibility<T>(f.visibility.cview(), f.beta.cview(), f.pixel_size.cview(), out.view(), scratch.view(),
+                                  workspace, g, fs, {T(0), T(1), T(0)}, pool);
     };
     for (auto _ : state) {
         if (with_guides) run(aaf::guides{f.normals.cview(), f.ids.cview(), f.positions.cview()});

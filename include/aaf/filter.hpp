@@ -24,6 +24,7 @@
 #include "image_view.hpp"
 #include "occlusion_stats.hpp"
 #include "settings.hpp"
+#include "simd.hpp"
 
 namespace aaf {
 inline namespace v0 {
@@ -155,7 +156,18 @@ void copy_row(const_image_view<glm::vec<3, T>> view, std::size_t y, T* AAF_DETAI
     const std::size_t w = view.width();
     if (view.packed_rows()) {
         const glm::vec<3, T>* AAF_DETAIL_RESTRICT in = &view(0, y);
-        for (std::size_t x = 0; x < w; ++x) ox[x] = in[x].x, oy[x] = in[x].y, oz[x] = in[x].z;
+        std::size_t x = 0;
+#if AAF_SIMD_BYTES > 0
+        if constexpr (sizeof(glm::vec<3, T>) == 3 * sizeof(T)) {  // GLM's packed layout (the default)
+            using S = simd<T>;
+            for (; x + S::lanes <= w; x += S::lanes) {
+                typename S::vec vx, vy, vz;
+                S::deinterleave3(&in[x].x, vx, vy, vz);
+                S::store(ox + x, vx), S::store(oy + x, vy), S::store(oz + x, vz);
+            }
+        }
+#endif
+        for (; x < w; ++x) ox[x] = in[x].x, oy[x] = in[x].y, oz[x] = in[x].z;
     } else {
         for (std::size_t x = 0; x < w; ++x) {
             const glm::vec<3, T> n = view(x, y);
@@ -207,32 +219,44 @@ struct tap_cursor {
     const T* AAF_DETAIL_RESTRICT pz;
 };
 
+/// The memory of a pass's row copies (tap_rows), independent of the guides and offset space so that one
+/// workspace serves every filter call of a frame loop; arrays a pass does not use stay empty.
+template <class T>
+struct row_buffers {
+    std::vector<T> v, nx, ny, nz, px, py, pz;
+    std::vector<std::uint32_t> id;
+};
+
 /// Structure-of-arrays copies of rows of the pass's input and of the guides it uses, `stride` elements per
 /// row, so that the lanes read contiguous, aligned-type arrays whatever the caller's pixel strides.
 /// Elements that stand for pixels outside the image hold a NaN value (and NaN normals), which every tap
 /// rejects; with normals, a non-finite value also gets a NaN normal, so the normal test rejects it alone.
+/// The arrays live in a row_buffers (a workspace's), which only grows.
 template <class T, class G, offset_space Space>
 struct tap_rows {
     static constexpr bool normals = G::has_normals;
     static constexpr bool ids = G::has_ids;
     static constexpr bool positions = Space != offset_space::image;
     std::size_t stride = 0;
-    // Not value-initialised: every element is written by `load` or `fill` before the lanes read it.
-    std::unique_ptr<T[]> v, nx, ny, nz, px, py, pz;
-    std::unique_ptr<std::uint32_t[]> id;
+    row_buffers<T>& buffers;
+    // Not cleared: every element is written by `load` or `fill` before the lanes read it.
+    T *v = nullptr, *nx = nullptr, *ny = nullptr, *nz = nullptr, *px = nullptr, *py = nullptr, *pz = nullptr;
+    std::uint32_t* id = nullptr;
 
-    std::size_t capacity = 0;
+    explicit tap_rows(row_buffers<T>& b) noexcept : buffers(b) {}
 
-    /// Makes room for `rows` rows of `row_stride` elements; reallocates only to grow.
+    /// Makes room for `rows` rows of `row_stride` elements; the buffers reallocate only to grow.
     void resize(std::size_t rows, std::size_t row_stride) {
         stride = row_stride;
         const std::size_t n = rows * row_stride;
-        if (n <= capacity) return;
-        capacity = n;
-        v.reset(new T[n]);
-        if constexpr (normals) nx.reset(new T[n]), ny.reset(new T[n]), nz.reset(new T[n]);
-        if constexpr (ids) id.reset(new std::uint32_t[n]);
-        if constexpr (positions) px.reset(new T[n]), py.reset(new T[n]), pz.reset(new T[n]);
+        const auto fit = [n](auto& array) {
+            if (array.size() < n) array.resize(n);
+            return array.data();
+        };
+        v = fit(buffers.v);
+        if constexpr (normals) nx = fit(buffers.nx), ny = fit(buffers.ny), nz = fit(buffers.nz);
+        if constexpr (ids) id = fit(buffers.id);
+        if constexpr (positions) px = fit(buffers.px), py = fit(buffers.py), pz = fit(buffers.pz);
     }
 
     /// Makes elements [begin, end) of buffer row `row` stand for pixels outside the image (rejected taps).
@@ -263,7 +287,13 @@ struct tap_rows {
             constexpr T max_finite = std::numeric_limits<T>::max(), nan = std::numeric_limits<T>::quiet_NaN();
             T* AAF_DETAIL_RESTRICT n = &nx[o];
             const T* AAF_DETAIL_RESTRICT value = &v[o];
-            for (std::size_t x = 0; x < w; ++x) n[x] = std::abs(value[x]) <= max_finite ? n[x] : nan;
+            std::size_t x = 0;
+#if AAF_SIMD_BYTES > 0
+            using S = simd<T>;
+            for (; x + S::lanes <= w; x += S::lanes)
+                S::store(n + x, S::select(S::finite(S::load(value + x)), S::load(n + x), S::splat(nan)));
+#endif
+            for (; x < w; ++x) n[x] = std::abs(value[x]) <= max_finite ? n[x] : nan;
         }
         if constexpr (ids) copy_row(g.ids, y, &id[o]);
         if constexpr (positions) copy_row(g.positions, y, &px[o], &py[o], &pz[o]);
@@ -292,41 +322,62 @@ struct lane_state {
           inv_two_beta2(w), out(w) {}
 };
 
-/// What a pass works in, kept from task to task and from the horizontal to the vertical pass of one
-/// filter_visibility call: allocated (and its pages first touched) once per call and thread, not per task.
-template <class T, class G, offset_space Space>
+/// The vertical image-space pass's per-block lane state (rows × width): radii, sums, and each row's
+/// neighbour rows (see filter_pass).
+template <class T>
+struct block_state {
+    std::vector<T> full_radius, radius, sum, wsum;
+    std::vector<std::size_t> left, right;
+    void fit(std::size_t lanes, std::size_t offsets) {
+        if (radius.size() < lanes) full_radius.resize(lanes), radius.resize(lanes), sum.resize(lanes), wsum.resize(lanes);
+        if (left.size() < offsets) left.resize(offsets), right.resize(offsets);
+    }
+};
+
+/// What a pass works in, kept from task to task, from the horizontal to the vertical pass and (in a
+/// filter_workspace) from call to call: allocated (and its pages first touched) once, not per task or call.
+template <class T>
 struct pass_workspace {
     lane_state<T> st;
-    tap_rows<T, G, Space> rows;
+    row_buffers<T> rows;
     std::vector<unsigned char> lok, rok;  // light plane: the lanes' accepted taps
+    std::vector<std::size_t> left, right;  // image space, vectors: the rows' elements of lane 0's neighbours at ∓k
+    block_state<T> block;                  // vertical image-space pass, vectors
 
     explicit pass_workspace(std::size_t w) : st(w), lok(filter_lane_block), rok(filter_lane_block) {}
 };
 
-/// The workspaces of one call, each lent to one task at a time (as many exist as tasks ever ran at once).
-template <class W>
+/// The workspaces of one call, each lent to one task at a time (as many exist as tasks ever ran at once),
+/// taken from and given back to a filter_workspace's spares (`spares` keeps its capacity, so that giving
+/// back does not allocate either).
+template <class T>
 class workspace_pool {
 public:
-    explicit workspace_pool(std::size_t width) : width_(width) {}
+    using spares_type = std::vector<std::unique_ptr<pass_workspace<T>>>;
+    workspace_pool(std::size_t width, spares_type& spares) : width_(width), spares_(spares) {
+        // A spare made for another width is remade (rare: a frame loop keeps its size).
+        for (auto& ws : spares_)
+            if (ws->st.beta.size() != width_) ws = std::make_unique<pass_workspace<T>>(width_);
+    }
 
     /// Calls f(workspace) with a free workspace (a new one if none is free).
     template <class F>
     void lend(F&& f) {
-        std::unique_ptr<W> ws;
+        std::unique_ptr<pass_workspace<T>> ws;
         {
             const std::lock_guard lock(mutex_);
-            if (!free_.empty()) ws = std::move(free_.back()), free_.pop_back();
+            if (!spares_.empty()) ws = std::move(spares_.back()), spares_.pop_back();
         }
-        if (!ws) ws = std::make_unique<W>(width_);
+        if (!ws) ws = std::make_unique<pass_workspace<T>>(width_);
         f(*ws);
         const std::lock_guard lock(mutex_);
-        free_.push_back(std::move(ws));
+        spares_.push_back(std::move(ws));
     }
 
 private:
     std::size_t width_;
+    spares_type& spares_;
     std::mutex mutex_;
-    std::vector<std::unique_ptr<W>> free_;
 };
 
 /// Taps at distances k, k+1, …, k+K−1 on both sides of lanes [0, n) in image space: for each distance,
@@ -374,6 +425,86 @@ void image_taps(std::size_t n, std::size_t k, T cos_threshold, const T* AAF_DETA
         wsum[i] = ws;
     }
 }
+
+#if AAF_SIMD_BYTES > 0
+/// Image-space taps of `Groups` vectors of lanes (simd<T>::lanes centres each) starting at lane `x0` of the
+/// row whose centres are element `centre_at` of `rows`, over all their distances: each lane's state (sums,
+/// weight recurrence, radius, centre guides) stays in registers from k = 1 to the group's largest radius.
+/// `left[k]`, `right[k]` are the elements of `rows` holding lane 0's neighbours at −k and +k. Writes the
+/// lanes' sums to `sum`, `wsum` (indexed by lane). Each lane performs the arithmetic of image_taps (and of
+/// the per-pixel definition) in the same order — w·m, m·q, the −k side, then the +k side, a rejected tap a
+/// select, not an add of 0 — so the results are the same bits. Several groups at once give the processor
+/// independent dependency chains (one group's sum is a chain of adds through its two sides).
+template <std::size_t Groups, class T, class Rows>
+void image_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& rows, const std::size_t* AAF_DETAIL_RESTRICT left,
+                       const std::size_t* AAF_DETAIL_RESTRICT right, const T* AAF_DETAIL_RESTRICT radius,
+                       const T* AAF_DETAIL_RESTRICT m1, T cos_threshold, T* AAF_DETAIL_RESTRICT sum,
+                       T* AAF_DETAIL_RESTRICT wsum) noexcept {
+    using S = simd<T>;
+    using vec = typename S::vec;
+    using mask = typename S::mask;
+    constexpr std::size_t N = S::lanes;
+    constexpr bool normals = Rows::normals, ids = Rows::ids;
+    const T* AAF_DETAIL_RESTRICT v = rows.v;
+    vec s[Groups], ws[Groups], wk[Groups], mk[Groups], q[Groups], r[Groups];
+    [[maybe_unused]] vec cnx[Groups], cny[Groups], cnz[Groups];
+    [[maybe_unused]] typename S::id cid[Groups];
+    for (std::size_t g = 0; g < Groups; ++g) {
+        const std::size_t x = x0 + g * N, c = centre_at + x;
+        r[g] = S::load(radius + x);
+        mk[g] = S::load(m1 + x);
+        q[g] = mk[g] * mk[g];
+        s[g] = S::load(v + c);
+        ws[g] = S::splat(T(1));
+        wk[g] = S::splat(T(1));
+        if constexpr (normals) cnx[g] = S::load(&rows.nx[c]), cny[g] = S::load(&rows.ny[c]), cnz[g] = S::load(&rows.nz[c]);
+        if constexpr (ids) cid[g] = S::template load<typename S::id>(&rows.id[c]);
+    }
+    const std::size_t steps = largest_radius(radius + x0, Groups * N);
+    const vec threshold = S::splat(cos_threshold);
+    const auto tap = [&](std::size_t g, std::size_t i, vec distance) {
+        const vec value = S::load(v + i);
+        mask ok = distance <= r[g];
+        // False for ±Inf and NaN; with normals, tap_rows gave such values a NaN normal instead.
+        if constexpr (!normals) ok = ok & S::finite(value);
+        if constexpr (ids) ok = ok & S::equal(S::template load<typename S::id>(&rows.id[i]), cid[g]);
+        // Same expression as glm::dot(centre, neighbour); `>=` is false for NaN normals, which reject.
+        if constexpr (normals)
+            ok = ok & (cnx[g] * S::load(&rows.nx[i]) + cny[g] * S::load(&rows.ny[i]) + cnz[g] * S::load(&rows.nz[i]) >= threshold);
+        s[g] = S::select(ok, s[g] + wk[g] * value, s[g]);
+        ws[g] = S::select(ok, ws[g] + wk[g], ws[g]);
+    };
+    for (std::size_t k = 1; k <= steps; ++k) {
+        const vec distance = S::splat(static_cast<T>(k));
+        const std::size_t l = left[k] + x0, rr = right[k] + x0;
+        for (std::size_t g = 0; g < Groups; ++g) {
+            wk[g] = wk[g] * mk[g];
+            mk[g] = mk[g] * q[g];
+            tap(g, l + g * N, distance);
+            tap(g, rr + g * N, distance);
+        }
+    }
+    for (std::size_t g = 0; g < Groups; ++g) S::store(sum + x0 + g * N, s[g]), S::store(wsum + x0 + g * N, ws[g]);
+}
+
+/// Groups of lanes processed together by image_lane_groups: two independent chains per distance hide the
+/// latency of the sums' adds (AVX-512 has the registers for them; AVX2 and SSE spill a few invariants).
+inline constexpr std::size_t filter_vector_groups = 2;
+
+/// Image-space taps of every lane of a row of `w` ≥ simd<T>::lanes centres (see image_lane_groups): blocks
+/// of filter_vector_groups vectors, then single vectors, the last one ending at lane w − 1 (it may redo
+/// lanes of the previous one, which yields the same bits).
+template <class T, class Rows>
+void image_row_vector(std::size_t w, std::size_t centre_at, const Rows& rows, const std::size_t* left, const std::size_t* right,
+                      const T* radius, const T* m1, T cos_threshold, T* sum, T* wsum) noexcept {
+    constexpr std::size_t N = simd<T>::lanes, G = filter_vector_groups;
+    std::size_t x0 = 0;
+    for (; x0 + G * N <= w; x0 += G * N)
+        image_lane_groups<G, T>(x0, centre_at, rows, left, right, radius, m1, cos_threshold, sum, wsum);
+    for (; x0 < w; x0 += N)
+        image_lane_groups<1, T>(std::min(x0, w - N), centre_at, rows, left, right, radius, m1, cos_threshold, sum, wsum);
+}
+#endif
 
 /// Light-plane taps at distance k: the guide masks vectorise; the distances, std::exp and the sums run
 /// per lane in the scalar order (−k side, then +k side). `Tangent`: distances are projected on each
@@ -431,7 +562,19 @@ std::pair<const T*, const T*> row_radii(lane_state<T>& st, const_image_view<T> b
     const T* AAF_DETAIL_RESTRICT dw = row_of(pixel_size, y, st.pixel_size.data());
     T* AAF_DETAIL_RESTRICT radius = st.full_radius.data();
     const T truncation = s.truncation, max_radius = static_cast<T>(s.max_radius);
-    for (std::size_t x = 0; x < w; ++x) {
+    std::size_t x0 = 0;
+#if AAF_SIMD_BYTES > 0
+    using S = simd<T>;
+    using vec = typename S::vec;
+    for (; x0 + S::lanes <= w; x0 += S::lanes) {  // the loop below, in vectors
+        const vec b = S::load(bw + x0), d = S::load(dw + x0), beta_px = b / d, zero = S::splat(T(0));
+        const vec t = truncation * beta_px, capped = S::select(t < max_radius, t, S::splat(max_radius));
+        const typename S::mask has = (b > zero) & (d > zero) & (beta_px > zero);
+        const vec whole = __builtin_convertvector(__builtin_convertvector(S::select(has, capped, zero), typename S::mask), vec);
+        S::store(radius + x0, S::select(has, S::select(whole < capped, whole + T(1), whole), zero));
+    }
+#endif
+    for (std::size_t x = x0; x < w; ++x) {
         const T b = bw[x], d = dw[x], beta_px = b / d;
         // min(ceil(t), max_radius) = ceil(min(t, max_radius)) as max_radius is an integer, and that ceil is
         // computed by truncation (std::ceil does not vectorise unless -fno-trapping-math); NaN goes to the cap.
@@ -475,7 +618,15 @@ template <class T>
                                          const T* AAF_DETAIL_RESTRICT full_radius) noexcept {
     constexpr T max_finite = std::numeric_limits<T>::max();
     bool any = false;
-    for (std::size_t x = 0; x < w; ++x) any = any | ((full_radius[x] > T(0)) & !(std::abs(cv[x]) <= max_finite));
+    std::size_t x = 0;
+#if AAF_SIMD_BYTES > 0
+    using S = simd<T>;
+    typename S::mask m{};
+    for (; x + S::lanes <= w; x += S::lanes)
+        m |= (S::load(full_radius + x) > S::splat(T(0))) & ~S::finite(S::load(cv + x));
+    any = S::any(m);
+#endif
+    for (; x < w; ++x) any = any | ((full_radius[x] > T(0)) & !(std::abs(cv[x]) <= max_finite));
     return any;
 }
 
@@ -500,14 +651,14 @@ void normalise_lanes(std::size_t w, const T* AAF_DETAIL_RESTRICT cv, const T* AA
 template <pass_direction Dir, offset_space Space, class T, class G>
 void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T> beta, const_image_view<T> pixel_size,
                  const G& g, const glm::vec<3, T>& light_normal, const filter_settings<T>& s, std::size_t y_begin,
-                 std::size_t y_end, std::size_t* row_reach, T* decay, pass_workspace<T, G, Space>& ws) {
+                 std::size_t y_end, std::size_t* row_reach, T* decay, pass_workspace<T>& ws) {
     constexpr bool horizontal = Dir == pass_direction::horizontal;
     constexpr bool light_plane = Space != offset_space::image;  // world offsets: light or tangent plane
     const std::size_t w = src.width(), h = src.height();
     const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
 
     lane_state<T>& st = ws.st;
-    tap_rows<T, G, Space>& rows = ws.rows;
+    tap_rows<T, G, Space> rows(ws.rows);
     std::vector<unsigned char>&lok = ws.lok, &rok = ws.rok;  // light plane: the lanes' accepted taps
     const std::size_t margin =
         s.max_radius + filter_distances_per_sweep;  // horizontal: NaN elements left and right of the row
@@ -518,6 +669,28 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
         rows.fill(0, 0, margin);  // `load` writes only [margin, margin + w)
         rows.fill(0, margin + w, w + 2 * margin);
     }
+
+    // A non-finite centre with a kernel (rare): the scalar rule, after the row's lanes are stored.
+    const auto fix_non_finite_centres = [&](std::size_t y, const T* cv, const T* full_radius) {
+        if (!any_non_finite_centre(w, cv, full_radius)) return;
+        for (std::size_t x = 0; x < w; ++x) {
+            const T centre = cv[x];
+            if (!(full_radius[x] > T(0)) || std::isfinite(centre)) continue;
+            glm::vec<3, T> p{0};
+            T inv_two_beta2 = T(0);
+            if constexpr (light_plane) {
+                p = g.positions(x, y);
+                if (!std::isfinite(p.x + p.y + p.z)) continue;  // no position: copied
+                inv_two_beta2 = st.inv_two_beta2[x];
+            }
+            const std::size_t pos = horizontal ? x : y, extent = horizontal ? w : h;
+            const T beta_px = beta(x, y) / pixel_size(x, y);
+            dst(x, y) = non_finite_centre_average<Dir, Space>(
+                src, g, guide_center<T, G>(g, x, y), p, light_normal, x, y, pos, extent,
+                static_cast<std::size_t>(full_radius[x]), T(1) / (T(2) * beta_px * beta_px), inv_two_beta2,
+                cos_threshold, centre);
+        }
+    };
 
     // Blocks of filter_rows_per_task rows, whatever the executor hands out, so that the vertical pass's
     // copy of the rows within reach stays cache-sized (and its buffer is reused).
@@ -534,6 +707,53 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             rows.fill(nan_row, 0, w);
             for (std::size_t y = first_row; y < last_row; ++y) rows.load(y - first_row, 0, src, g, y);
         }
+#if AAF_SIMD_BYTES > 0
+        if constexpr (!horizontal && !light_plane) {
+            if (w >= simd<T>::lanes) {
+                // Vertical, image space, vectors: the lanes of a column group walk all rows of the block before
+                // the next group, so that the rows within reach of that group (a few KiB) stay in L1 from one
+                // centre row to the next instead of streaming every copied row from L3 for each centre row.
+                block_state<T>& B = ws.block;
+                const std::size_t n_rows = block_end - block;
+                std::size_t reach = 0;
+                for (std::size_t y = block; y < block_end; ++y) reach = std::max(reach, row_reach[y]);
+                const std::size_t R = reach + 1;
+                B.fit(n_rows * w, n_rows * R);
+                for (std::size_t y = block; y < block_end; ++y) {
+                    const std::size_t i = y - block;
+                    const auto C = rows.at((y - first_row) * w);
+                    const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
+                    std::copy_n(st.full_radius.data(), w, &B.full_radius[i * w]);
+                    setup_lanes<false>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, &B.radius[i * w],
+                                       st.a.data(), st.wk.data(), st.sum.data(), st.wsum.data(), st.inv_two_beta2.data());
+                    for (std::size_t k = 1; k < R; ++k) {
+                        B.left[i * R + k] = (k <= y ? y - k - first_row : nan_row) * w;
+                        B.right[i * R + k] = (y + k < h ? y + k - first_row : nan_row) * w;
+                    }
+                }
+                constexpr std::size_t N = simd<T>::lanes, G2 = filter_vector_groups;
+                const auto column = [&](auto groups, std::size_t x0) {
+                    for (std::size_t y = block; y < block_end; ++y) {
+                        const std::size_t i = y - block;
+                        image_lane_groups<decltype(groups)::value, T>(x0, (y - first_row) * w, rows, &B.left[i * R],
+                                                                      &B.right[i * R], &B.radius[i * w], decay + y * w,
+                                                                      cos_threshold, &B.sum[i * w], &B.wsum[i * w]);
+                    }
+                };
+                std::size_t x0 = 0;
+                for (; x0 + G2 * N <= w; x0 += G2 * N) column(std::integral_constant<std::size_t, G2>{}, x0);
+                for (; x0 < w; x0 += N) column(std::integral_constant<std::size_t, 1>{}, std::min(x0, w - N));
+                for (std::size_t y = block; y < block_end; ++y) {
+                    const std::size_t i = y - block;
+                    const auto C = rows.at((y - first_row) * w);
+                    normalise_lanes(w, C.v, &B.radius[i * w], &B.sum[i * w], &B.wsum[i * w], st.out.data());
+                    store_row(st.out.data(), dst, y);
+                    fix_non_finite_centres(y, C.v, &B.full_radius[i * w]);
+                }
+                continue;
+            }
+        }
+#endif
         for (std::size_t y = block; y < block_end; ++y) {
             if constexpr (horizontal) rows.load(0, margin, src, g, y);  // the margins keep their NaN values
             const std::size_t centre_at = horizontal ? margin : (y - first_row) * w;  // the centres in `rows`
@@ -543,16 +763,36 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             if constexpr (horizontal) row_reach[y] = largest_radius(st.full_radius.data(), w);
             setup_lanes<light_plane>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, st.radius.data(), st.a.data(), st.wk.data(), st.sum.data(),
                                      st.wsum.data(), st.inv_two_beta2.data());
+            bool vector_done = false;
             if constexpr (!light_plane) {
                 // w_k = exp(-k² a) by the recurrence w_k = w_{k-1}·m_k, m_k = exp(-(2k-1)a), q = exp(-2a).
                 T* AAF_DETAIL_RESTRICT m1 = decay + y * w;
                 if constexpr (horizontal)  // every pixel with a kernel (the vertical pass's centres may be finite)
                     for (std::size_t x = 0; x < w; ++x) m1[x] = st.full_radius[x] > T(0) ? std::exp(-st.a[x]) : T(0);
-                T* AAF_DETAIL_RESTRICT mk = st.mk.data();
-                T* AAF_DETAIL_RESTRICT q = st.q.data();
-                for (std::size_t x = 0; x < w; ++x) mk[x] = m1[x], q[x] = m1[x] * m1[x];
+#if AAF_SIMD_BYTES > 0
+                if (w >= simd<T>::lanes) {
+                    const std::size_t reach = largest_radius(st.radius.data(), w);
+                    ws.left.resize(reach + 1), ws.right.resize(reach + 1);
+                    for (std::size_t k = 1; k <= reach; ++k) {
+                        if constexpr (horizontal) {
+                            ws.left[k] = centre_at - k, ws.right[k] = centre_at + k;
+                        } else {
+                            ws.left[k] = (k <= y ? y - k - first_row : nan_row) * w;
+                            ws.right[k] = (y + k < h ? y + k - first_row : nan_row) * w;
+                        }
+                    }
+                    image_row_vector<T>(w, centre_at, rows, ws.left.data(), ws.right.data(), st.radius.data(), m1,
+                                        cos_threshold, st.sum.data(), st.wsum.data());
+                    vector_done = true;
+                }
+#endif
+                if (!vector_done) {
+                    T* AAF_DETAIL_RESTRICT mk = st.mk.data();
+                    T* AAF_DETAIL_RESTRICT q = st.q.data();
+                    for (std::size_t x = 0; x < w; ++x) mk[x] = m1[x], q[x] = m1[x] * m1[x];
+                }
             }
-            for (std::size_t x0 = 0; x0 < w; x0 += filter_lane_block) {
+            for (std::size_t x0 = 0; x0 < w && !vector_done; x0 += filter_lane_block) {
                 const std::size_t n = std::min(filter_lane_block, w - x0);
                 const std::size_t steps = largest_radius(&st.radius[x0], n);
                 const auto Cb = rows.at(centre_at + x0);
@@ -584,25 +824,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             }
             normalise_lanes(w, C.v, st.radius.data(), st.sum.data(), st.wsum.data(), st.out.data());
             store_row(st.out.data(), dst, y);
-            if (!any_non_finite_centre(w, C.v, st.full_radius.data())) continue;
-            for (std::size_t x = 0; x < w; ++x) {
-                const T centre = C.v[x];
-                if (!(st.full_radius[x] > T(0)) || std::isfinite(centre)) continue;
-                // A non-finite centre with a kernel (rare): the scalar rule.
-                glm::vec<3, T> p{0};
-                T inv_two_beta2 = T(0);
-                if constexpr (light_plane) {
-                    p = g.positions(x, y);
-                    if (!std::isfinite(p.x + p.y + p.z)) continue;  // no position: copied
-                    inv_two_beta2 = st.inv_two_beta2[x];
-                }
-                const std::size_t pos = horizontal ? x : y, extent = horizontal ? w : h;
-                const T beta_px = beta(x, y) / pixel_size(x, y);
-                dst(x, y) = non_finite_centre_average<Dir, Space>(
-                    src, g, guide_center<T, G>(g, x, y), p, light_normal, x, y, pos, extent,
-                    static_cast<std::size_t>(st.full_radius[x]), T(1) / (T(2) * beta_px * beta_px), inv_two_beta2,
-                    cos_threshold, centre);
-            }
+            fix_non_finite_centres(y, C.v, st.full_radius.data());
         }
     }
 }
@@ -610,6 +832,18 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
 #undef AAF_DETAIL_RESTRICT
 
 }  // namespace detail
+
+/// Working memory of filter_visibility, kept between calls so that a frame loop allocates nothing per
+/// call: each pixel's Gaussian decay (image space, one T per pixel), each row's reach, and one set of lane
+/// state and row copies per concurrent task (about 20–40 bytes per copied pixel for 64 rows and the rows
+/// within reach). It grows to the largest frame and task count it has served and is independent of the
+/// guides and offset space. Not thread-safe: one call at a time per workspace. Its contents are internal.
+template <class T>
+struct filter_workspace {
+    std::vector<T> decay;
+    std::vector<std::size_t> row_reach;
+    typename detail::workspace_pool<T>::spares_type passes;
+};
 
 /// Filters `visibility` into `output` with the separable guided Gaussian: a horizontal pass into
 /// `scratch`, then a vertical pass into `output`, each with the centre pixel's width (as the authors).
@@ -622,9 +856,8 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
 /// * Non-finite visibility never spreads: such neighbours are skipped; a non-finite centre takes its
 ///   valid neighbours' average (or stays as it was if it has none).
 /// * `output` may alias neither `visibility` nor `scratch`. All views must have the same size.
-/// * Working memory is allocated per call and freed on return (no global or thread-local state): in image
-///   space one T per pixel (each pixel's Gaussian decay, shared by both passes), and per concurrent task
-///   the lane state and row copies of a block of 64 rows.
+/// * Working memory comes from `workspace` (filter_workspace): once it has served a frame of this size
+///   with as many threads, the call allocates nothing. (The overloads without it make one per call.)
 /// Throws aaf::invalid_argument (before touching `output`) on mismatched sizes or invalid settings.
 /// T is deduced from `output` only, so mutable views and `image<T>`s convert to the read-only inputs.
 template <class T, class G = guides<>, class Exec = sequential_executor>
@@ -632,7 +865,7 @@ template <class T, class G = guides<>, class Exec = sequential_executor>
 void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
                        std::type_identity_t<const_image_view<T>> filter_width,
                        std::type_identity_t<const_image_view<T>> pixel_size, image_view<T> output,
-                       std::type_identity_t<image_view<T>> scratch, const G& g = {},
+                       std::type_identity_t<image_view<T>> scratch, filter_workspace<T>& workspace, const G& g = {},
                        const std::type_identity_t<filter_settings<T>>& s = {},
                        const std::type_identity_t<glm::vec<3, T>>& light_normal = {0, 1, 0}, Exec&& exec = {}) {
     constexpr const char* fn = "filter_visibility";
@@ -650,18 +883,21 @@ void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
     // Tasks are blocks of rows; every pixel's result is independent of how they are split.
     const std::size_t tasks = (h + detail::filter_rows_per_task - 1) / detail::filter_rows_per_task;
     const auto row = [h](std::size_t task) { return std::min(task * detail::filter_rows_per_task, h); };
-    std::vector<std::size_t> row_reach(h);  // each row's largest kernel radius, from the horizontal pass
+    // Each row's largest kernel radius, from the horizontal pass. Not cleared: the horizontal pass writes
+    // every element (and, in image space, every element of `decay`) before the vertical pass reads it.
+    if (workspace.row_reach.size() < h) workspace.row_reach.resize(h);
+    std::size_t* row_reach = workspace.row_reach.data();
+    detail::workspace_pool<T> pool(w, workspace.passes);
     if (s.space == offset_space::tangent_plane) {
         if constexpr (!G::has_positions || !G::has_normals) {
             detail::throw_invalid(fn, "`settings.space` is tangent_plane but `guides.positions` or `guides.normals` is absent");
         } else {
             constexpr auto space = offset_space::tangent_plane;
-            detail::workspace_pool<detail::pass_workspace<T, G, space>> pool(w);
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::horizontal, space, T>(visibility, scratch, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach.data(), static_cast<T*>(nullptr), ws); });
+                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::horizontal, space, T>(visibility, scratch, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
             });
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::vertical, space, T>(scratch, output, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach.data(), static_cast<T*>(nullptr), ws); });
+                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::vertical, space, T>(scratch, output, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
             });
             return;
         }
@@ -673,25 +909,39 @@ void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
             const T len = glm::length(light_normal);
             if (!(len > T(0)) || !std::isfinite(len)) detail::throw_invalid(fn, "`light_normal` must be a finite non-zero vector");
             const glm::vec<3, T> n = light_normal / len;
-            detail::workspace_pool<detail::pass_workspace<T, G, offset_space::light_plane>> pool(w);
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach.data(), static_cast<T*>(nullptr), ws); });
+                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
             });
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach.data(), static_cast<T*>(nullptr), ws); });
+                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
             });
             return;
         }
     }
-    // Not value-initialised: the horizontal pass writes every element before the vertical pass reads it.
-    const std::unique_ptr<T[]> decay(new T[w * h]);
-    detail::workspace_pool<detail::pass_workspace<T, G, offset_space::image>> pool(w);
+    if (workspace.decay.size() < w * h) workspace.decay.resize(w * h);
+    T* decay = workspace.decay.data();
     exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-        pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach.data(), decay.get(), ws); });
+        pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach, decay, ws); });
     });
     exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-        pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach.data(), decay.get(), ws); });
+        pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach, decay, ws); });
     });
+}
+
+/// The same with working memory allocated for this call and freed on return (no global or thread-local
+/// state): in image space one T per pixel, and per concurrent task the lane state and row copies of a
+/// block of 64 rows. Frame loops pass a filter_workspace instead.
+template <class T, class G = guides<>, class Exec = sequential_executor>
+    requires detail::is_guides<G>::value
+void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
+                       std::type_identity_t<const_image_view<T>> filter_width,
+                       std::type_identity_t<const_image_view<T>> pixel_size, image_view<T> output,
+                       std::type_identity_t<image_view<T>> scratch, const G& g = {},
+                       const std::type_identity_t<filter_settings<T>>& s = {},
+                       const std::type_identity_t<glm::vec<3, T>>& light_normal = {0, 1, 0}, Exec&& exec = {}) {
+    filter_workspace<T> workspace;
+    filter_visibility<T>(visibility, filter_width, pixel_size, output, scratch, workspace, g, s, light_normal,
+                         std::forward<Exec>(exec));
 }
 
 /// Convenience overload that allocates its own scratch image.

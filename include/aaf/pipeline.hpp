@@ -52,6 +52,7 @@ struct frame_workspace {
     image<T> filtered;
     image<T> scratch;
     image<T> footprint;                      ///< the filter's pixel footprint (filter_settings::footprint other than camera)
+    filter_workspace<T> filter;              ///< the filter's working memory (internal)
 
     void resize(std::size_t w, std::size_t h) {
         if (stats.width() == w && stats.height() == h) return;
@@ -247,7 +248,7 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
     if (settings.filter.space == offset_space::light_plane) {
         guides<const_image_view<glm::vec<3, T>>, Ids, const_image_view<glm::vec<3, T>>> g{gb.normals, gb.ids, gb.positions};
         filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), gb.pixel_size, ws.filtered.view(),
-                             ws.scratch.view(), g, settings.filter, light.normal(), exec);
+                             ws.scratch.view(), ws.filter, g, settings.filter, light.normal(), exec);
     } else {
         // Tilt-aware widths: β over the pixel's footprint on its own surface instead of the camera's d.
         const_image_view<T> footprint = gb.pixel_size;
@@ -259,7 +260,7 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
         }
         guides<const_image_view<glm::vec<3, T>>, Ids, no_guide> g{gb.normals, gb.ids, {}};
         filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), footprint, ws.filtered.view(),
-                             ws.scratch.view(), g, settings.filter, light.normal(), exec);
+                             ws.scratch.view(), ws.filter, g, settings.filter, light.normal(), exec);
     }
     report.filter_ms = detail::ms_since(t0);
     if (!progress(0.95)) return report.cancelled = true, report;

@@ -172,14 +172,18 @@ inline void validate(const sampling_settings& s, const char* function = "validat
 template <class T>
 void validate(const filter_settings<T>& s, const char* function = "validate") {
     using detail::require;
-    require(std::isfinite(s.truncation) && s.truncation > T(0) && s.truncation <= T(10), function,
-            "settings.filter.truncation", "must be in (0, 10] (got " + std::to_string(s.truncation) + ")");
-    require(s.max_radius <= 1024, function, "settings.filter.max_radius", "must be <= 1024 (got " + std::to_string(s.max_radius) + ")");
-    require(s.normal_threshold_degrees > T(0) && s.normal_threshold_degrees <= T(180), function,
-            "settings.filter.normal_threshold_degrees", "must be in (0, 180] (got " + std::to_string(s.normal_threshold_degrees) + ")");
-    require(s.spread_radius <= 1024, function, "settings.filter.spread_radius", "must be <= 1024 (got " + std::to_string(s.spread_radius) + ")");
-    require(s.footprint == pixel_footprint::camera || s.footprint == pixel_footprint::surface_area || s.footprint == pixel_footprint::surface_max,
-            function, "settings.filter.footprint", "must be a pixel_footprint (got " + std::to_string(static_cast<int>(s.footprint)) + ")");
+    // Messages built only on failure: filter_visibility validates on every call and must not allocate then.
+    if (!(std::isfinite(s.truncation) && s.truncation > T(0) && s.truncation <= T(10)))
+        require(false, function, "settings.filter.truncation", "must be in (0, 10] (got " + std::to_string(s.truncation) + ")");
+    if (!(s.max_radius <= 1024))
+        require(false, function, "settings.filter.max_radius", "must be <= 1024 (got " + std::to_string(s.max_radius) + ")");
+    if (!(s.normal_threshold_degrees > T(0) && s.normal_threshold_degrees <= T(180)))
+        require(false, function, "settings.filter.normal_threshold_degrees",
+                "must be in (0, 180] (got " + std::to_string(s.normal_threshold_degrees) + ")");
+    if (!(s.spread_radius <= 1024))
+        require(false, function, "settings.filter.spread_radius", "must be <= 1024 (got " + std::to_string(s.spread_radius) + ")");
+    if (!(s.footprint == pixel_footprint::camera || s.footprint == pixel_footprint::surface_area || s.footprint == pixel_footprint::surface_max))
+        require(false, function, "settings.filter.footprint", "must be a pixel_footprint (got " + std::to_string(static_cast<int>(s.footprint)) + ")");
 }
 
 template <class T>
