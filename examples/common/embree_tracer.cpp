@@ -77,6 +77,26 @@ struct embree_tracer::impl {
         throw std::runtime_error("aaf_examples::embree_tracer: " + what + " failed (Embree: " + error_name(e) + ")");
     }
 
+    /// occluder_span's second ray: the farthest hit is the nearest one seen from the light point. The back ray
+    /// starts at the light point or, for a long or infinite segment, where the segment leaves the scene's bounds
+    /// (no hit lies beyond; this keeps the start finite and its rounding small), and reaches a little past the
+    /// nearest hit (the start carries a rounding error); `farthest` ignores what it finds before `nearest`.
+    bool back_ray(const aaf::shadow_segment<float>& s, float nearest, RTCRay& back, float& end) const noexcept {
+        end = s.length;
+        const glm::vec3 inv = 1.0f / s.direction;
+        for (int k = 0; k < 3; ++k) {
+            const float t_exit = ((s.direction[k] < 0.0f ? lo[k] : hi[k]) - s.origin[k]) * inv[k];
+            if (std::isfinite(t_exit) && t_exit >= nearest) end = std::min(end, t_exit * (1.0f + 1e-4f) + 1e-4f * nearest);
+        }
+        end = std::max(end, nearest);
+        if (!make_ray({s.origin + end * s.direction, -s.direction, end}, back)) return false;
+        back.tfar = (end - nearest) + 1e-5f * end;
+        return true;
+    }
+    static float farthest(float nearest, float end, const RTCRayHit& backward) noexcept {
+        return backward.hit.geomID == RTC_INVALID_GEOMETRY_ID ? nearest : std::max(nearest, end - backward.ray.tfar);
+    }
+
     /// Nearest hit along `ray` (whose tnear/tfar are set); primID or RTC_INVALID_GEOMETRY_ID.
     RTCRayHit intersect(const RTCRay& ray) const noexcept {
         RTCRayHit rh;
@@ -185,26 +205,11 @@ aaf::occluder_span<float> embree_tracer::occluder_span(const aaf::shadow_segment
     const RTCRayHit forward = impl_->intersect(ray);
     if (forward.hit.geomID == RTC_INVALID_GEOMETRY_ID) return {};
     const float nearest = forward.ray.tfar;
-    // The farthest hit is the nearest one seen from the light point. The back ray reaches a little past the
-    // nearest hit (the light point carries a rounding error), and anything it finds nearer the receiver than
-    // `nearest` is ignored by the max below.
-    // The back ray starts at the light point, or, for a long or infinite segment, where the segment leaves the
-    // scene's bounds (no hit lies beyond; this keeps the start finite and its rounding small).
-    float end = s.length;
-    const glm::vec3 inv = 1.0f / s.direction;
-    for (int k = 0; k < 3; ++k) {
-        const float t_exit = ((s.direction[k] < 0.0f ? impl_->lo[k] : impl_->hi[k]) - s.origin[k]) * inv[k];
-        if (std::isfinite(t_exit) && t_exit >= nearest) end = std::min(end, t_exit * (1.0f + 1e-4f) + 1e-4f * nearest);
-    }
-    end = std::max(end, nearest);
-    const glm::vec3 start = s.origin + end * s.direction;
     RTCRay back;
-    if (!make_ray({start, -s.direction, end}, back)) return {nearest, nearest};
-    back.tnear = 0.0f;
-    back.tfar = (end - nearest) + 1e-5f * end;
+    float end = 0;
+    if (!impl_->back_ray(s, nearest, back, end)) return {nearest, nearest};
     const RTCRayHit backward = impl_->intersect(back);
-    const float farthest = backward.hit.geomID == RTC_INVALID_GEOMETRY_ID ? nearest : std::max(nearest, end - backward.ray.tfar);
-    return {nearest, farthest};
+    return {nearest, impl_->farthest(nearest, end, backward)};
 }
 
 bool embree_tracer::occluded(const aaf::shadow_segment<float>& s) const noexcept {
@@ -214,6 +219,121 @@ bool embree_tracer::occluded(const aaf::shadow_segment<float>& s) const noexcept
     rtcInitIntersectContext(&context);
     rtcOccluded1(impl_->scene, &context, &ray);
     return ray.tfar == -std::numeric_limits<float>::infinity();  // Embree's mark of an occluded ray
+}
+
+}  // namespace aaf_examples
+
+// ---------------------------------------------------------------------------------------------------------
+// Packets.
+
+namespace aaf_examples {
+
+namespace {
+
+constexpr std::size_t lanes = embree_tracer::packet_size;
+static_assert(lanes == 16, "the packet code below calls Embree's 16-wide forms");
+
+void set_lane(RTCRay16& p, std::size_t i, const RTCRay& r) noexcept {
+    p.org_x[i] = r.org_x, p.org_y[i] = r.org_y, p.org_z[i] = r.org_z, p.tnear[i] = r.tnear;
+    p.dir_x[i] = r.dir_x, p.dir_y[i] = r.dir_y, p.dir_z[i] = r.dir_z, p.time[i] = r.time;
+    p.tfar[i] = r.tfar, p.mask[i] = r.mask, p.id[i] = static_cast<unsigned>(i), p.flags[i] = r.flags;
+}
+
+/// A lane Embree skips (valid = 0) still gets harmless values.
+void clear_lane(RTCRay16& p, std::size_t i) noexcept {
+    RTCRay r;
+    make_ray({glm::vec3(0.0f), glm::vec3(0.0f, 0.0f, 1.0f), 0.0f}, r);
+    set_lane(p, i, r);
+}
+
+template <class Out>
+void require_same_size(const char* function, std::size_t segments, std::span<Out> out) {
+    if (out.size() != segments)
+        throw std::invalid_argument(std::string("aaf_examples::embree_tracer::") + function + ": out has " +
+                                    std::to_string(out.size()) + " elements for " + std::to_string(segments) + " segments");
+}
+
+}  // namespace
+
+void embree_tracer::occluded_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<bool> out) const {
+    require_same_size("occluded_batch", segments.size(), out);
+    for (std::size_t first = 0; first < segments.size(); first += lanes) {
+        const std::size_t n = std::min(lanes, segments.size() - first);
+        alignas(64) int valid[lanes];
+        alignas(64) RTCRay16 packet;
+        for (std::size_t i = 0; i < lanes; ++i) {
+            RTCRay r;
+            valid[i] = i < n && make_ray(segments[first + i], r) ? -1 : 0;
+            if (valid[i]) set_lane(packet, i, r);
+            else clear_lane(packet, i);
+        }
+        RTCIntersectContext context;
+        rtcInitIntersectContext(&context);
+        rtcOccluded16(valid, impl_->scene, &context, &packet);
+        for (std::size_t i = 0; i < n; ++i)
+            out[first + i] = valid[i] && packet.tfar[i] == -std::numeric_limits<float>::infinity();
+    }
+}
+
+void embree_tracer::nearest_occluder_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<float> out) const {
+    require_same_size("nearest_occluder_batch", segments.size(), out);
+    for (std::size_t first = 0; first < segments.size(); first += lanes) {
+        const std::size_t n = std::min(lanes, segments.size() - first);
+        alignas(64) int valid[lanes];
+        alignas(64) RTCRayHit16 packet;
+        for (std::size_t i = 0; i < lanes; ++i) {
+            RTCRay r;
+            valid[i] = i < n && make_ray(segments[first + i], r) ? -1 : 0;
+            if (valid[i]) set_lane(packet.ray, i, r);
+            else clear_lane(packet.ray, i);
+            packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+            packet.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+        }
+        RTCIntersectContext context;
+        rtcInitIntersectContext(&context);
+        rtcIntersect16(valid, impl_->scene, &context, &packet);
+        for (std::size_t i = 0; i < n; ++i)
+            out[first + i] = !valid[i] ? std::numeric_limits<float>::quiet_NaN()
+                             : packet.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID ? aaf::no_occluder<float>
+                                                                               : packet.ray.tfar[i];
+    }
+}
+
+void embree_tracer::occluder_span_batch(std::span<const aaf::shadow_segment<float>> segments,
+                                        std::span<aaf::occluder_span<float>> out) const {
+    require_same_size("occluder_span_batch", segments.size(), out);
+    constexpr float nan = std::numeric_limits<float>::quiet_NaN();
+    for (std::size_t first = 0; first < segments.size(); first += lanes) {
+        const std::size_t n = std::min(lanes, segments.size() - first);
+        float nearest[lanes];
+        nearest_occluder_batch(segments.subspan(first, n), std::span<float>(nearest, n));
+        alignas(64) int valid[lanes];
+        alignas(64) RTCRayHit16 packet;
+        float end[lanes];
+        for (std::size_t i = 0; i < lanes; ++i) {
+            RTCRay r;
+            valid[i] = i < n && !std::isnan(nearest[i]) && nearest[i] != aaf::no_occluder<float> &&
+                               impl_->back_ray(segments[first + i], nearest[i], r, end[i])
+                           ? -1
+                           : 0;
+            if (valid[i]) set_lane(packet.ray, i, r);
+            else clear_lane(packet.ray, i);
+            packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+            packet.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+        }
+        RTCIntersectContext context;
+        rtcInitIntersectContext(&context);
+        rtcIntersect16(valid, impl_->scene, &context, &packet);
+        for (std::size_t i = 0; i < n; ++i) {
+            aaf::occluder_span<float>& o = out[first + i];
+            if (std::isnan(nearest[i])) o = {nan, 0.0f};
+            else if (nearest[i] == aaf::no_occluder<float>) o = {};
+            else if (!valid[i]) o = {nearest[i], nearest[i]};
+            else o = {nearest[i], packet.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID
+                                      ? nearest[i]
+                                      : std::max(nearest[i], end[i] - packet.ray.tfar[i])};
+        }
+    }
 }
 
 }  // namespace aaf_examples

@@ -71,6 +71,22 @@ public:
     /// Any hit with 0 < t < length; false for an invalid segment.
     [[nodiscard]] bool occluded(const aaf::shadow_segment<float>& segment) const noexcept;
 
+    // Packet forms: the same answers for many segments at once, traced 16 at a time through Embree's ray packets
+    // (rtcIntersect16 / rtcOccluded16; Embree runs them on narrower SIMD where the CPU has no AVX-512). Fill the
+    // packets by passing many segments (a tile's or a row's, not one pixel's 9): a partial packet costs nearly a
+    // full one. `out` must have the size of `segments` (else std::invalid_argument). Not the aaf batch contract
+    // (tracer.hpp's trace_batch asks for nearest and farthest hits of one pixel's segments), which is being
+    // redesigned: an adapter from the library's batched forms to these is one line each.
+    static constexpr std::size_t packet_size = 16;  ///< rays per Embree packet
+
+    /// occluded() of every segment (false for invalid ones).
+    void occluded_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<bool> out) const;
+    /// nearest_occluder() of every segment (aaf::no_occluder on a miss, NaN for invalid ones).
+    void nearest_occluder_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<float> out) const;
+    /// occluder_span() of every segment: a packet of nearest hits, then a packet of back rays for the occluded ones.
+    void occluder_span_batch(std::span<const aaf::shadow_segment<float>> segments,
+                             std::span<aaf::occluder_span<float>> out) const;
+
     /// Triangles in the Embree scene (after dropping unusable ones).
     [[nodiscard]] std::size_t triangle_count() const noexcept;
     /// Input triangles dropped as unusable (non-finite vertex or zero area).

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -231,4 +232,47 @@ TEST_CASE("an aaf gather through embree_tracer gives the BVH's statistics", "[em
             differing_visibility += vb(x, y).samples != ve(x, y).samples || vb(x, y).occluded != ve(x, y).occluded ||
                                     vb(x, y).visible_weight != ve(x, y).visible_weight;
     CHECK(differing_visibility == 0);
+}
+
+TEST_CASE("embree_tracer's packet forms give its single-ray answers", "[embree][packet]") {
+    const aaf_examples::scene s = aaf_examples::load_scene("plant", scenes_dir);
+    const embree_tracer e(s.vertices, s.triangles);
+    std::vector<segment> segments = random_segments(s, 1000, 3);
+    // Invalid segments in the middle of a packet fail alone.
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    segments[5].direction = glm::vec3(0.0f);
+    segments[21].length = nan;
+    segments[22].origin.x = std::numeric_limits<float>::infinity();
+    for (const std::size_t n : {std::size_t{1}, std::size_t{15}, std::size_t{17}, segments.size()}) {
+        INFO(n << " segments");
+        const std::span<const segment> in(segments.data(), n);
+        std::unique_ptr<bool[]> occluded_out(new bool[n]);
+        std::vector<float> nearest(n);
+        std::vector<aaf::occluder_span<float>> spans(n);
+        e.occluded_batch(in, std::span<bool>(occluded_out.get(), n));
+        e.nearest_occluder_batch(in, nearest);
+        e.occluder_span_batch(in, spans);
+        std::size_t hits = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+            INFO("segment " << i);
+            const segment& g = segments[i];
+            const float tol = relative_tolerance * (std::isfinite(g.length) ? g.length : 1.0f);
+            REQUIRE(occluded_out[i] == e.occluded(g));
+            hits += occluded_out[i] ? 1 : 0;
+            const float single = e.nearest_occluder(g);
+            REQUIRE(std::isnan(nearest[i]) == std::isnan(single));
+            REQUIRE((nearest[i] == aaf::no_occluder<float>) == (single == aaf::no_occluder<float>));
+            if (std::isfinite(single)) CHECK(std::abs(nearest[i] - single) <= tol);
+            const aaf::occluder_span<float> one = e.occluder_span(g);
+            REQUIRE(std::isnan(spans[i].nearest) == std::isnan(one.nearest));
+            REQUIRE(spans[i].hit() == one.hit());
+            if (one.hit()) {
+                CHECK(std::abs(spans[i].nearest - one.nearest) <= tol);
+                CHECK(std::abs(spans[i].farthest - one.farthest) <= tol);
+            }
+        }
+        if (n == segments.size()) CHECK(hits > n / 20);
+    }
+    std::vector<float> wrong(3);
+    CHECK_THROWS_AS(e.nearest_occluder_batch(segments, wrong), std::invalid_argument);
 }
