@@ -614,6 +614,16 @@ bool bvh::traverse_wide(const traversal_ray& r, float t_lo, float t_hi, triangle
         const wide_node& n = wide_[current];
         alignas(16) float t_in[4];
         unsigned mask = overlaps_wide(n, r, t_lo, t_hi, t_in);
+#if defined(AAF_EXAMPLES_BVH_SSE)
+        // Ask for what the lanes hit now: the loads of triangles and nodes, not arithmetic, bound the traversal.
+        for (unsigned m = mask; m != 0; m &= m - 1) {
+            const auto lane = static_cast<unsigned>(std::countr_zero(m));
+            const char* p = n.count[lane] != 0 ? reinterpret_cast<const char*>(&tris_[n.index[lane]])
+                                               : reinterpret_cast<const char*>(&wide_[n.index[lane]]);
+            _mm_prefetch(p, _MM_HINT_T0);
+            _mm_prefetch(p + 64, _MM_HINT_T0);
+        }
+#endif
         // The lanes hit, nearest entry first (insertion into at most four).
         std::array<unsigned, 4> order;
         unsigned hits = 0;
