@@ -11,11 +11,13 @@
 //
 // Layout: 32-byte nodes, the two children of a node stored next to each other, the triangles copied into
 // leaf order (three vertices each) so a leaf is one contiguous read. The nearest-hit and any-hit queries
-// traverse a 4-wide copy of the tree instead (the binary tree collapsed, Wald et al. 2008 "Getting Rid of
-// Packets", Dammertz et al. 2008 "Shallow Bounding Volume Hierarchies"): 128-byte nodes holding their four
-// children's boxes side by side, tested at once with SSE, and leaves referenced from their parent's lane, so a
-// ray loads about half as many nodes and no leaf node at all. Traversal is memory-latency bound (a profile
-// of the binary traversal spent most of its time waiting for node loads), which is what this buys back.
+// traverse an 8-wide copy of the tree instead (the binary tree collapsed, Wald et al. 2008 "Getting Rid of
+// Packets", Dammertz et al. 2008 "Shallow Bounding Volume Hierarchies"): 256-byte nodes holding their eight
+// children's boxes side by side, tested four at a time with SSE, and leaves referenced from their parent's
+// lane, so a ray loads about a third as many nodes and no leaf node at all, and the lanes it enters are
+// prefetched as soon as they are known. Traversal is memory-latency bound (a profile of the binary traversal
+// spent most of its time waiting for node and triangle loads), which is what this buys back; 8 lanes measured
+// ~15 % faster than 4 (benchmarks/bench_bvh.cpp, BM_tracers). AAF_EXAMPLES_BVH_LANES (4, 8, ...) overrides.
 //
 // Robustness: the triangle test is Woop, Benthin & Wald, "Watertight Ray/Triangle Intersection", JCGT 2(1)
 // 2013, with the 2D edge functions evaluated in double. Products of two floats are exact in double, so the
@@ -42,6 +44,9 @@
 #if defined(__SSE2__) || defined(_M_X64)
 #include <immintrin.h>
 #define AAF_EXAMPLES_BVH_SSE 1
+#endif
+#ifndef AAF_EXAMPLES_BVH_LANES
+#define AAF_EXAMPLES_BVH_LANES 8  // a multiple of 4
 #endif
 
 #include <glm/common.hpp>
@@ -185,17 +190,19 @@ public:
     /// Input index of each triangle in leaf order (what a leaf's [index, index + count) refers to).
     [[nodiscard]] std::span<const std::uint32_t> triangle_ids() const noexcept { return ids_; }
 
-    /// One node of the 4-wide tree: the boxes of up to four children, structure of arrays (box[k] holds the
+    /// One node of the wide tree: the boxes of up to wide_lanes children, structure of arrays (box[k] holds the
     /// minimum, box[3 + k] the maximum on axis k, one lane per child). A lane with count > 0 is a leaf,
     /// triangles [index, index + count) in leaf order; count == 0 is an inner node (wide_nodes()[index]), or an
     /// unused lane, whose box is empty (+inf, -inf), so that no ray enters it.
+    static constexpr unsigned wide_lanes = AAF_EXAMPLES_BVH_LANES;  ///< children per wide node
+    static_assert(wide_lanes % 4 == 0 && wide_lanes <= 32, "AAF_EXAMPLES_BVH_LANES: a multiple of 4 up to 32");
     struct alignas(64) wide_node {
-        std::array<std::array<float, 4>, 6> box;
-        std::array<std::uint32_t, 4> index;
-        std::array<std::uint32_t, 4> count;
+        std::array<std::array<float, wide_lanes>, 6> box;
+        std::array<std::uint32_t, wide_lanes> index;
+        std::array<std::uint32_t, wide_lanes> count;
     };
-    static_assert(sizeof(wide_node) == 128);
-    /// The 4-wide tree the nearest-hit and any-hit queries traverse; its root is wide_nodes()[0].
+    static_assert(sizeof(wide_node) == 32 * wide_lanes);
+    /// The wide tree the nearest-hit and any-hit queries traverse; its root is wide_nodes()[0].
     [[nodiscard]] std::span<const wide_node> wide_nodes() const noexcept { return wide_; }
 
 private:
@@ -209,20 +216,20 @@ private:
     template <query Q>
     bool traverse(const traversal_ray& r, float t_lo, float t_hi, triangle_hit& best, std::uint32_t& slot,
                   std::uint32_t start = 0) const noexcept;
-    /// As traverse<Q> over the whole tree, through the 4-wide nodes (nearest and any only).
+    /// As traverse<Q> over the whole tree, through the wide nodes (nearest and any only).
     template <query Q>
     bool traverse_wide(const traversal_ray& r, float t_lo, float t_hi, triangle_hit& best, std::uint32_t& slot) const noexcept;
-    /// The box tests of a wide node's four lanes: bit i of the result is set when lane i overlaps (t_lo, t_hi)
+    /// The box tests of a wide node's lanes: bit i of the result is set when lane i overlaps (t_lo, t_hi)
     /// under the same conservative test as overlaps(); t_in[i] is its entry distance.
     static unsigned overlaps_wide(const wide_node& n, const traversal_ray& r, float t_lo, float t_hi, float* t_in) noexcept;
     /// Builds wide_ from nodes_: the binary node `b` becomes a wide node whose lanes are its descendants (the
-    /// inner child with the largest surface opened until there are four). Returns its index in wide_.
+    /// inner child with the largest surface opened until there are wide_lanes). Returns its index in wide_.
     std::uint32_t collapse(std::uint32_t b);
     struct span_entry { std::uint32_t node; float t_in, t_out; };
     static constexpr unsigned deferred_capacity = 8;  ///< subtrees set aside by occluder_span's first pass (more: searched at once)
 
     std::vector<bvh_node> nodes_;
-    std::vector<wide_node> wide_;          // the same tree, 4-wide
+    std::vector<wide_node> wide_;          // the same tree, wide_lanes-wide
     std::vector<triangle_vertices> tris_;  // leaf order
     std::vector<std::uint32_t> ids_;       // leaf order -> input triangle index
     std::size_t dropped_ = 0;
@@ -417,7 +424,7 @@ inline bvh::bvh(std::span<const glm::vec3> vertices, std::span<const glm::uvec3>
     nodes_.resize(1);
     b.build(nodes_, 0, 0, static_cast<std::uint32_t>(order.size()), 0, depth_);
     nodes_.shrink_to_fit();
-    wide_.reserve(nodes_.size() / 3 + 1);
+    wide_.reserve(nodes_.size() / (wide_lanes - 1) + 1);
     collapse(0);
     wide_.shrink_to_fit();
 
@@ -521,13 +528,13 @@ inline std::uint32_t bvh::collapse(std::uint32_t b) {
     for (int k = 0; k < 3; ++k) fresh.box[static_cast<std::size_t>(k)].fill(std::numeric_limits<float>::infinity());
     for (int k = 3; k < 6; ++k) fresh.box[static_cast<std::size_t>(k)].fill(-std::numeric_limits<float>::infinity());
     fresh.index.fill(0), fresh.count.fill(0);
-    std::array<std::uint32_t, 4> lanes{};
+    std::array<std::uint32_t, wide_lanes> lanes{};
     unsigned n = 0;
     if (nodes_[b].count != 0) {  // a tree that is one leaf
         lanes[n++] = b;
     } else {
         lanes[n++] = nodes_[b].index, lanes[n++] = nodes_[b].index + 1;
-        while (n < 4) {  // open the inner lane with the largest surface: the one most rays would enter
+        while (n < wide_lanes) {  // open the inner lane with the largest surface: the one most rays would enter
             int pick = -1;
             float largest = -1.0f;
             for (unsigned i = 0; i < n; ++i) {
@@ -567,23 +574,27 @@ inline unsigned bvh::overlaps_wide(const wide_node& n, const traversal_ray& r, f
     // The same operations as overlaps(), lane by lane: (plane - origin) * inv_dir, rounded alike; a NaN
     // distance (origin in the plane of a zero direction component) leaves the running value unchanged.
 #if defined(AAF_EXAMPLES_BVH_SSE)
-    __m128 in = _mm_set1_ps(t_lo), out = _mm_set1_ps(t_hi);
-    for (int k = 0; k < 3; ++k) {
-        const bool neg = r.negative[static_cast<std::size_t>(k)];
-        const __m128 o = _mm_set1_ps(r.w.origin[k]), inv = _mm_set1_ps(r.inv_dir[k]);
-        const __m128 lo = _mm_load_ps(n.box[static_cast<std::size_t>(k)].data());
-        const __m128 hi = _mm_load_ps(n.box[static_cast<std::size_t>(3 + k)].data());
-        const __m128 t_near = _mm_mul_ps(_mm_sub_ps(neg ? hi : lo, o), inv);
-        const __m128 t_far = _mm_mul_ps(_mm_sub_ps(neg ? lo : hi, o), inv);
-        in = _mm_max_ps(t_near, in);   // maxps returns its second operand when either is NaN
-        out = _mm_min_ps(t_far, out);
+    unsigned mask = 0;
+    for (unsigned first = 0; first < wide_lanes; first += 4) {  // four lanes per SSE register
+        __m128 in = _mm_set1_ps(t_lo), out = _mm_set1_ps(t_hi);
+        for (int k = 0; k < 3; ++k) {
+            const bool neg = r.negative[static_cast<std::size_t>(k)];
+            const __m128 o = _mm_set1_ps(r.w.origin[k]), inv = _mm_set1_ps(r.inv_dir[k]);
+            const __m128 lo = _mm_load_ps(n.box[static_cast<std::size_t>(k)].data() + first);
+            const __m128 hi = _mm_load_ps(n.box[static_cast<std::size_t>(3 + k)].data() + first);
+            const __m128 t_near = _mm_mul_ps(_mm_sub_ps(neg ? hi : lo, o), inv);
+            const __m128 t_far = _mm_mul_ps(_mm_sub_ps(neg ? lo : hi, o), inv);
+            in = _mm_max_ps(t_near, in);  // maxps returns its second operand when either is NaN
+            out = _mm_min_ps(t_far, out);
+        }
+        out = _mm_mul_ps(out, _mm_set1_ps(robust));
+        _mm_storeu_ps(t_in + first, in);
+        mask |= static_cast<unsigned>(_mm_movemask_ps(_mm_cmple_ps(in, out))) << first;
     }
-    out = _mm_mul_ps(out, _mm_set1_ps(robust));
-    _mm_storeu_ps(t_in, in);
-    return static_cast<unsigned>(_mm_movemask_ps(_mm_cmple_ps(in, out)));
+    return mask;
 #else
     unsigned mask = 0;
-    for (unsigned i = 0; i < 4; ++i) {
+    for (unsigned i = 0; i < wide_lanes; ++i) {
         float a = t_lo, b = t_hi;
         for (int k = 0; k < 3; ++k) {
             const bool neg = r.negative[static_cast<std::size_t>(k)];
@@ -606,13 +617,13 @@ bool bvh::traverse_wide(const traversal_ray& r, float t_lo, float t_hi, triangle
     constexpr float eps = 0.5f * std::numeric_limits<float>::epsilon();
     constexpr float robust = 1.0f + 2.0f * (3.0f * eps / (1.0f - 3.0f * eps));
     struct entry { std::uint32_t node; float t_in; };
-    std::array<entry, 3 * (max_depth + 1)> stack;  // at most three pushes per level
+    std::array<entry, (wide_lanes - 1) * (max_depth + 1)> stack;  // at most wide_lanes - 1 pushes per level
     unsigned top = 0;
     bool found = false;
     std::uint32_t current = 0;
     for (;;) {
         const wide_node& n = wide_[current];
-        alignas(16) float t_in[4];
+        alignas(32) float t_in[wide_lanes];
         unsigned mask = overlaps_wide(n, r, t_lo, t_hi, t_in);
 #if defined(AAF_EXAMPLES_BVH_SSE)
         // Ask for what the lanes hit now: the loads of triangles and nodes, not arithmetic, bound the traversal.
@@ -620,12 +631,12 @@ bool bvh::traverse_wide(const traversal_ray& r, float t_lo, float t_hi, triangle
             const auto lane = static_cast<unsigned>(std::countr_zero(m));
             const char* p = n.count[lane] != 0 ? reinterpret_cast<const char*>(&tris_[n.index[lane]])
                                                : reinterpret_cast<const char*>(&wide_[n.index[lane]]);
-            _mm_prefetch(p, _MM_HINT_T0);
-            _mm_prefetch(p + 64, _MM_HINT_T0);
+            for (unsigned line = 0; line < (n.count[lane] != 0 ? 2u : sizeof(wide_node) / 64); ++line)
+                _mm_prefetch(p + 64 * line, _MM_HINT_T0);
         }
 #endif
-        // The lanes hit, nearest entry first (insertion into at most four).
-        std::array<unsigned, 4> order;
+        // The lanes hit, nearest entry first (insertion sort of at most wide_lanes).
+        std::array<unsigned, wide_lanes> order;
         unsigned hits = 0;
         for (; mask != 0; mask &= mask - 1) {
             const auto lane = static_cast<unsigned>(std::countr_zero(mask));
@@ -635,7 +646,7 @@ bool bvh::traverse_wide(const traversal_ray& r, float t_lo, float t_hi, triangle
         }
         // Leaves now, in order (each hit shrinks t_hi for the lanes after it); inner lanes onto the stack,
         // farthest first, the nearest one visited next.
-        std::array<entry, 4> inner;
+        std::array<entry, wide_lanes> inner;
         unsigned n_inner = 0;
         for (unsigned j = 0; j < hits; ++j) {
             const unsigned lane = order[j];
