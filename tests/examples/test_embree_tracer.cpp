@@ -276,3 +276,25 @@ TEST_CASE("embree_tracer's packet forms give its single-ray answers", "[embree][
     std::vector<float> wrong(3);
     CHECK_THROWS_AS(e.nearest_occluder_batch(segments, wrong), std::invalid_argument);
 }
+
+TEST_CASE("scene_tracer (--tracer) builds either tracer, and both give the same G-buffer", "[embree][tracer_option]") {
+    aaf_examples::scene s = aaf_examples::load_scene("bunny", scenes_dir);
+    s.width = 48, s.height = 36;
+    const aaf_examples::scene_tracer with_bvh(s, "bvh"), with_embree(s, "embree");
+    CHECK(std::string(with_bvh.name()) == "bvh");
+    CHECK(std::string(with_embree.name()) == "embree");
+    CHECK(with_bvh.triangle_count() == with_embree.triangle_count());
+    aaf::thread_pool pool(2);
+    const aaf_examples::gbuffer_images a = aaf_examples::render_gbuffer(s, with_bvh, pool);
+    const aaf_examples::gbuffer_images b = aaf_examples::render_gbuffer(s, with_embree, pool);
+    REQUIRE(a.surfaces == b.surfaces);
+    std::size_t other_triangle = 0;
+    for (std::size_t y = 0; y < s.height; ++y)
+        for (std::size_t x = 0; x < s.width; ++x) {
+            if (!a.surface(y * s.width + x)) continue;
+            CHECK(glm::length(a.positions(x, y) - b.positions(x, y)) <= 1e-4f);
+            other_triangle += a.ids(x, y) != b.ids(x, y) ? 1 : 0;  // object IDs: always the same object
+        }
+    CHECK(other_triangle == 0);
+    CHECK_THROWS_AS(aaf_examples::scene_tracer(s, "optix"), aaf_examples::usage_error);
+}
