@@ -3,6 +3,9 @@
 
 #include "common/methods.hpp"
 
+#include "common/occlusion_methods.hpp"
+#include "common/shadow_maps_methods.hpp"
+
 #include <algorithm>
 #include <cstdio>
 
@@ -14,6 +17,8 @@ namespace {
 std::vector<method_family> registry() {
     std::vector<method_family> families;
     families.push_back(shadow_methods());
+    families.push_back(shadow_map_methods());
+    families.push_back(occlusion_methods());
     return families;
 }
 

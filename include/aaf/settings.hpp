@@ -65,6 +65,9 @@ struct sampling_settings {
 enum class offset_space {
     image,        ///< pixel offsets, β converted to pixels with the centre's projected pixel size (cheap)
     light_plane,  ///< world offsets projected onto the light plane, as the theory and the authors' code
+    /// World offsets projected onto the *centre pixel's* tangent plane (its normal guide), as the authors'
+    /// indirect-light / AO code (§1.11 [AUTH-GI]); needs the positions and normals guides.
+    tangent_plane,
 };
 
 /// The separable Gaussian filter and the slope-spreading pass.
