@@ -47,7 +47,8 @@ method_output render_mc_ao(const render_inputs& in, aaf::sample_pattern pattern,
     for (std::size_t y = 0; y < h; ++y)
         for (std::size_t x = 0; x < w; ++x) raw(x, y) = stats(x, y).visibility();
     out.image = displayable_ao(raw, in.g);
-    out.stages_ms = {{"rays", rays_ms}, {"total", ms_since(t0)}};
+    out.total_ms = ms_since(t0);
+    out.stages_ms = {{"rays", rays_ms}};
     out.memory_bytes = w * h * sizeof(aaf::ao_stats<float>);
     return out;
 }
@@ -96,7 +97,7 @@ method_output render_aaf_ao(const render_inputs& in, float mu) {
     const auto t0 = clock_type::now();
     out.rays = aaf::render_ambient_occlusion(view_of(in.g), in.tracer, s,
                                              aaf::ao_outputs<float>{vis.view(), bent.view(), beta.view(), spp.view()}, {}, in.pool);
-    out.stages_ms = {{"total", ms_since(t0)}};
+    out.total_ms = ms_since(t0);
     out.image = displayable_ao(vis, in.g);
     out.memory_bytes = w * h * (sizeof(aaf::ao_stats<float>) + 8 * sizeof(float));
     aaf::image<float> beta_px(w, h, 0.0f), samples(w, h, 0.0f);

@@ -274,6 +274,7 @@ json run(const config& c) {
         if (!methods.contains(d.name)) {
             json j{{"name", d.name}, {"kind", d.family}, {"knob", d.knob}, {"settings", d.settings}, {"points", json::array()}};
             j["settings"]["frame_seed"] = c.seed;
+            if (!j["settings"].contains("description")) j["settings"]["description"] = d.help;
             if (d.doubling_sweep) j["settings"]["max_spp"] = mc_cap[d.name];
             if (d.name == baseline)
                 j["settings"]["stop_rule"] = "doubling until the RMSE is below every other method's point, or max_mc_spp";

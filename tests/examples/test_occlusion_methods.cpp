@@ -27,7 +27,7 @@ TEST_CASE("occlusion methods render the boxes scene and aaf_ao beats Monte Carlo
     REQUIRE(f.methods.size() == 3);
     REQUIRE(f.references.size() == 1);
     CHECK(f.references[0].what == quantity::ambient_occlusion);
-    const aaf::image<float> ref = f.references[0].render(in, 1024, 77);
+    const aaf::image<float> ref = f.references[0].render(in, 1024, 77).image;
     const auto mask = g.surface_mask();
     double mc_error = 0, aaf_error = 0;
     for (const method& m : f.methods) {
