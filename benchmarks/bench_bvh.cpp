@@ -9,18 +9,32 @@
 // a rectangular light above it, half the mesh's footprint wide, one mesh height above its top; the ground
 // is twice the footprint, so there are lit, penumbra and umbra samples.
 //
+// With Embree (AAF_WITH_EMBREE), BM_tracers/<query>/<mesh> traces the same segments with the BVH and with
+// Embree (examples/common/embree_tracer.hpp: single rays, and 16-wide packets of consecutive segments) taking
+// turns within each iteration, on the bunny, plant, car and Armadillo: nearest hit (nearest_occluder) and any
+// hit (occluded), 1 and 2 threads. Counters: bvh_Mrays/s; embree_Mrays/s and embree16_Mrays/s (single rays and
+// packets, on the robust scene the examples use: watertight like the BVH); embree_fast_Mrays/s (single rays,
+// Embree's default scene flags, not watertight); bvh/embree and bvh/embree_fast, the BVH's rays per second over
+// Embree's single-ray ones (wall time), and bvh/embree_cpu, bvh/embree_fast_cpu, the same in process CPU time
+// (robust to other load on the machine). The iteration time is the sum of the four.
+//
 //   build/release/benchmarks/aaf_benchmarks --benchmark_filter=bvh
+//   AAF_SCENES_DIR=/work/shared/scenes build/release/benchmarks/aaf_benchmarks --benchmark_filter=BM_tracers
 
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <cstdlib>
+#include <ctime>
 #include <exception>
 #include <filesystem>
 #include <limits>
 #include <map>
 #include <memory>
 #include <random>
+#include <span>
 #include <string>
 #include <thread>
 #include <utility>
@@ -30,6 +44,9 @@
 
 #include "common/bvh.hpp"
 #include "common/mesh_io.hpp"
+#if AAF_EXAMPLES_EMBREE
+#include "common/embree_tracer.hpp"
+#endif
 
 namespace {
 
@@ -56,6 +73,9 @@ std::vector<fs::path> mesh_candidates(const std::string& name) {
 struct scene {
     aaf_examples::triangle_mesh mesh;
     std::unique_ptr<bvh> tree;
+#if AAF_EXAMPLES_EMBREE
+    std::unique_ptr<aaf_examples::embree_tracer> embree, embree_fast;  // robust (the examples') and default scene flags
+#endif
     std::vector<segment> segments;
     std::string error;  // non-empty: the mesh is unavailable
 };
@@ -77,6 +97,11 @@ const scene& get_scene(const std::string& name) {
     try {
         s.mesh = aaf_examples::load_triangles(path);
         s.tree = std::make_unique<bvh>(s.mesh.vertices, s.mesh.triangles);
+#if AAF_EXAMPLES_EMBREE
+        s.embree = std::make_unique<aaf_examples::embree_tracer>(s.mesh.vertices, s.mesh.triangles);
+        s.embree_fast = std::make_unique<aaf_examples::embree_tracer>(s.mesh.vertices, s.mesh.triangles,
+                                                                      aaf_examples::embree_tracer_options{.robust = false});
+#endif
     } catch (const std::exception& e) {
         s.error = e.what();
         return s;
@@ -172,6 +197,114 @@ void BM_bvh_shadow(benchmark::State& state, const std::string& name, query q) {
     state.counters["triangles"] = static_cast<double>(tree.triangle_count());
 }
 
+#if AAF_EXAMPLES_EMBREE
+/// Runs `trace(first, last) -> count` over the batch in chunks of `chunk` segments (a packet tracer's unit),
+/// split over `threads` threads as run_batch does.
+template <class Trace>
+std::size_t run_chunks(const std::vector<segment>& segments, unsigned threads, std::size_t chunk, Trace trace) {
+    const std::size_t chunks = (segments.size() + chunk - 1) / chunk;
+    std::vector<std::size_t> counts(threads, 0);
+    const auto work = [&](unsigned t) {
+        std::size_t c = 0;
+        for (std::size_t k = chunks * t / threads; k < chunks * (t + 1) / threads; ++k)
+            c += trace(k * chunk, std::min(segments.size(), (k + 1) * chunk));
+        counts[t] = c;
+    };
+    std::vector<std::thread> workers;
+    for (unsigned t = 1; t < threads; ++t) workers.emplace_back(work, t);
+    work(0);
+    for (std::thread& w : workers) w.join();
+    std::size_t total = 0;
+    for (const std::size_t c : counts) total += c;
+    return total;
+}
+
+/// The BVH and Embree on the same segments, side by side: each iteration traces the batch with each tracer
+/// (the order alternating between iterations), so that a change in the machine's load hits both alike.
+void BM_tracers(benchmark::State& state, const std::string& name, query q) {
+    const scene& s = get_scene(name);
+    if (!s.error.empty()) {
+        state.SkipWithError(s.error.c_str());
+        return;
+    }
+    const bvh& tree = *s.tree;
+    const aaf_examples::embree_tracer& embree = *s.embree;
+    const aaf_examples::embree_tracer& embree_fast = *s.embree_fast;
+    const auto threads = static_cast<unsigned>(state.range(0));
+    using clock = std::chrono::steady_clock;
+    double seconds[4] = {0, 0, 0, 0};  // BVH, Embree single rays, Embree packets, Embree single rays without ROBUST
+    double cpu_seconds[4] = {0, 0, 0, 0};  // the same in CPU time of the process (all its threads)
+    const auto cpu_now = [] {
+        timespec t{};
+        clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+        return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+    };
+    std::size_t occluded[4] = {0, 0, 0, 0};
+    const auto run = [&](int which) {
+        const clock::time_point t0 = clock::now();
+        const double cpu0 = cpu_now();
+        std::size_t c = 0;
+        if (which == 0 && q == query::occluded) {
+            c = run_batch(s.segments, threads, [&](const segment& g) { return std::size_t{tree.occluded(g)}; });
+        } else if (which == 0) {
+            c = run_batch(s.segments, threads, [&](const segment& g) { return std::size_t{tree.nearest_occluder(g) != aaf::no_occluder<float>}; });
+        } else if (which == 1 && q == query::occluded) {
+            c = run_batch(s.segments, threads, [&](const segment& g) { return std::size_t{embree.occluded(g)}; });
+        } else if (which == 1) {
+            c = run_batch(s.segments, threads, [&](const segment& g) { return std::size_t{embree.nearest_occluder(g) != aaf::no_occluder<float>}; });
+        } else if (which == 3 && q == query::occluded) {
+            c = run_batch(s.segments, threads, [&](const segment& g) { return std::size_t{embree_fast.occluded(g)}; });
+        } else if (which == 3) {
+            c = run_batch(s.segments, threads, [&](const segment& g) { return std::size_t{embree_fast.nearest_occluder(g) != aaf::no_occluder<float>}; });
+        } else {
+            constexpr std::size_t n = aaf_examples::embree_tracer::packet_size;
+            c = run_chunks(s.segments, threads, n, [&](std::size_t first, std::size_t last) {
+                const std::span<const segment> in(s.segments.data() + first, last - first);
+                std::size_t hits = 0;
+                if (q == query::occluded) {
+                    bool out[n];
+                    embree.occluded_batch(in, std::span<bool>(out, in.size()));
+                    for (std::size_t i = 0; i < in.size(); ++i) hits += out[i] ? 1 : 0;
+                } else {
+                    float out[n];
+                    embree.nearest_occluder_batch(in, std::span<float>(out, in.size()));
+                    for (std::size_t i = 0; i < in.size(); ++i) hits += out[i] != aaf::no_occluder<float> ? 1 : 0;
+                }
+                return hits;
+            });
+        }
+        const double elapsed = std::chrono::duration<double>(clock::now() - t0).count();
+        seconds[which] += elapsed;
+        cpu_seconds[which] += cpu_now() - cpu0;
+        occluded[which] = c;
+        return elapsed;
+    };
+    bool bvh_first = true;
+    for (auto _ : state) {
+        double iteration = 0;
+        for (int k = 0; k < 4; ++k) iteration += run(bvh_first ? k : 3 - k);
+        bvh_first = !bvh_first;
+        state.SetIterationTime(iteration);
+    }
+    const double rays = static_cast<double>(state.iterations()) * static_cast<double>(s.segments.size());
+    state.counters["bvh_Mrays/s"] = rays * 1e-6 / seconds[0];
+    state.counters["embree_Mrays/s"] = rays * 1e-6 / seconds[1];
+    state.counters["embree16_Mrays/s"] = rays * 1e-6 / seconds[2];
+    state.counters["embree_fast_Mrays/s"] = rays * 1e-6 / seconds[3];
+    state.counters["bvh/embree"] = seconds[1] / seconds[0];
+    state.counters["bvh/embree_fast"] = seconds[3] / seconds[0];
+    // The same ratios in CPU time: on a machine shared with other work, wall time also counts the time the
+    // benchmark's threads waited for a core; CPU time does not.
+    state.counters["bvh/embree_cpu"] = cpu_seconds[1] / cpu_seconds[0];
+    state.counters["bvh/embree_fast_cpu"] = cpu_seconds[3] / cpu_seconds[0];
+    state.counters["occluded"] = static_cast<double>(occluded[0]) / static_cast<double>(s.segments.size());
+    // The tracers must agree on the answer (up to rays through float-rounding ties, far fewer than 0.1 %).
+    const auto differs = [&](std::size_t a, std::size_t b) { return (a > b ? a - b : b - a) * 1000 > s.segments.size(); };
+    if (differs(occluded[0], occluded[1]) || differs(occluded[1], occluded[2]) || differs(occluded[1], occluded[3]))
+        state.SkipWithError("the BVH and Embree disagree on which segments are occluded");
+}
+#endif
+
 void register_all() {
     // Every mesh of ../shared/scenes (README: "report build time and shadow rays per second on each").
     constexpr const char* meshes[] = {"bun_zipper.ply", "Armadillo.ply", "plant.obj", "bench.obj", "window-blinds.obj",
@@ -187,6 +320,15 @@ void register_all() {
             benchmark::RegisterBenchmark((std::string("BM_bvh_") + qname + "/" + mesh).c_str(), BM_bvh_shadow,
                                          std::string(mesh), q)
                 ->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime();
+#if AAF_EXAMPLES_EMBREE
+    // The meshes (12: "the bunny, plant, car and Armadillo"), nearest hit and any hit.
+    const std::pair<const char*, query> compared[] = {{"nearest_occluder", query::nearest_occluder}, {"occluded", query::occluded}};
+    for (const char* mesh : {"bun_zipper.ply", "plant.obj", "sportsCar.obj", "Armadillo.ply"})
+        for (const auto& [qname, q] : compared)
+            benchmark::RegisterBenchmark((std::string("BM_tracers/") + qname + "/" + mesh).c_str(), BM_tracers,
+                                         std::string(mesh), q)
+                ->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseManualTime();
+#endif
 }
 
 [[maybe_unused]] const bool registered = (register_all(), true);

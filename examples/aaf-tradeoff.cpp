@@ -38,6 +38,7 @@ const char* const help_text =
     "  --out DIR             output folder [aaf-tradeoff-output]\n"
     "  --cache DIR           where references are cached between runs [OUT/cache]\n"
     "  --threads N           threads (0 = all cores) [2]\n"
+    "  --tracer bvh|embree   ray tracer: the examples' BVH, or Embree 3 in builds with AAF_WITH_EMBREE [bvh]\n"
     "  --seed N              frame seed of the measured methods; the reference's two halves use other\n"
     "                        seeds derived from it [0]\n"
     "  --reference-spp N     samples per pixel of the reference, rendered as two independent halves whose\n"
@@ -87,7 +88,7 @@ options parse(int argc, char** argv) {
     options o;
     aaf_examples::tradeoff::config& c = o.config;
     c.scenes_dir = fs::path(__FILE__).parent_path().parent_path() / "scenes";
-    const aaf_examples::shared_options shared{c.scene, c.scenes_dir, o.out, c.cache, c.width, c.height, c.seed};
+    const aaf_examples::shared_options shared{c.scene, c.scenes_dir, o.out, c.cache, c.width, c.height, c.seed, &c.tracer};
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         const auto value = [&]() -> std::string {

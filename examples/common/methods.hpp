@@ -27,7 +27,7 @@ namespace aaf_examples {
 /// What a method renders from: the scene, the examples' tracer, the camera's G-buffer and the threads.
 struct render_inputs {
     const scene& s;
-    const bvh& tracer;
+    const scene_tracer& tracer;  ///< the BVH or Embree (--tracer)
     const gbuffer_images& g;
     aaf::thread_pool& pool;
     std::uint32_t seed = 0;            ///< frame seed of the measured render (references use their own)

@@ -45,6 +45,10 @@ bool parse_shared_option(const std::string& flag, const std::function<std::strin
     else if (flag == "--out") o.out = value();
     else if (flag == "--cache") o.cache = value();
     else if (flag == "--seed") o.seed = parse_count(flag, value(), 0, 0xffffffffu);
+    else if (flag == "--tracer" && o.tracer) {
+        *o.tracer = value();
+        if (*o.tracer != "bvh" && *o.tracer != "embree") throw usage_error("--tracer: '" + *o.tracer + "' is not bvh or embree");
+    }
     else if (flag == "--size") {
         std::size_t width = 0, height = 0;
         parse_size(value(), width, height);
@@ -52,6 +56,25 @@ bool parse_shared_option(const std::string& flag, const std::function<std::strin
     } else return false;
     return true;
 }
+
+scene_tracer::scene_tracer(const scene& s, const std::string& kind) {
+    if (kind == "bvh") {
+        owned_bvh_ = std::make_unique<bvh>(s.vertices, s.triangles);
+        bvh_ = owned_bvh_.get();
+    } else if (kind == "embree") {
+#if AAF_EXAMPLES_EMBREE
+        owned_embree_ = std::make_unique<embree_tracer>(s.vertices, s.triangles);
+        embree_ = owned_embree_.get();
+#else
+        throw usage_error("--tracer embree: these examples were built without Embree (install libembree-dev and "
+                          "configure with -DAAF_WITH_EMBREE=ON)");
+#endif
+    } else {
+        throw usage_error("--tracer: '" + kind + "' is not bvh or embree");
+    }
+}
+
+scene_tracer::~scene_tracer() = default;
 
 bool gbuffer_images::surface(std::size_t i) const noexcept { return std::isfinite(positions.data()[i].x); }
 
@@ -61,7 +84,7 @@ std::vector<unsigned char> gbuffer_images::surface_mask() const {
     return m;
 }
 
-gbuffer_images render_gbuffer(const scene& s, const bvh& tracer, aaf::thread_pool& pool) {
+gbuffer_images render_gbuffer(const scene& s, const scene_tracer& tracer, aaf::thread_pool& pool) {
     const std::size_t w = s.width, h = s.height;
     const float nan = std::numeric_limits<float>::quiet_NaN();
     gbuffer_images g{aaf::image<glm::vec3>(w, h, glm::vec3(nan)), aaf::image<glm::vec3>(w, h, glm::vec3(nan)),
@@ -149,7 +172,7 @@ std::string reference_file_name(const scene& s, const reference_params& p) {
     return name;
 }
 
-reference_result reference_visibility(const scene& s, const gbuffer_images& g, const bvh& tracer,
+reference_result reference_visibility(const scene& s, const gbuffer_images& g, const scene_tracer& tracer,
                                       const reference_params& p, const fs::path& cache, aaf::thread_pool& pool, bool progress) {
     const auto t0 = clock_type::now();
     const std::size_t w = s.width, h = s.height;
@@ -215,7 +238,7 @@ reference_result reference_visibility(const scene& s, const gbuffer_images& g, c
     return r;
 }
 
-mc_result render_mc(const scene& s, const gbuffer_images& g, const bvh& tracer, const mc_params& p, aaf::thread_pool& pool) {
+mc_result render_mc(const scene& s, const gbuffer_images& g, const scene_tracer& tracer, const mc_params& p, aaf::thread_pool& pool) {
     const std::size_t w = s.width, h = s.height;
     const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{g.positions.cview(), g.normals.cview(),
                                                                        g.pixel_size.cview(), g.ids.cview()};

@@ -10,6 +10,8 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <limits>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -24,6 +26,9 @@
 
 #include "common/bvh.hpp"
 #include "common/scene.hpp"
+#if AAF_EXAMPLES_EMBREE
+#include "common/embree_tracer.hpp"
+#endif
 
 namespace aaf_examples {
 
@@ -56,7 +61,7 @@ int report_errors(const char* tool, Body&& body) {
     }
 }
 
-/// Where the options both tools take (--scene, --scenes-dir, --out, --cache, --size, --seed) are stored.
+/// Where the options both tools take (--scene, --scenes-dir, --out, --cache, --size, --seed, --tracer) are stored.
 struct shared_options {
     std::string& scene;
     std::filesystem::path& scenes_dir;
@@ -65,13 +70,62 @@ struct shared_options {
     std::optional<std::size_t>& width;
     std::optional<std::size_t>& height;
     std::uint32_t& seed;
+    std::string* tracer = nullptr;  ///< --tracer bvh|embree (checked by scene_tracer); null: the tool has no --tracer
+};
+
+/// The examples' ray tracer: the BVH (common/bvh.hpp), or Embree 3 (common/embree_tracer.hpp) when the examples
+/// were built with it, behind the BVH's queries. Either owns its tracer (built from a scene) or borrows a BVH
+/// (the implicit conversion, so code holding a `bvh` passes it wherever a scene_tracer is asked for).
+class scene_tracer {
+    // First: the members below deduce their return type from dispatch().
+#if AAF_EXAMPLES_EMBREE
+    [[nodiscard]] bool is_embree() const noexcept { return embree_ != nullptr; }
+    template <class F>
+    decltype(auto) dispatch(F&& f) const noexcept { return embree_ ? f(*embree_) : f(*bvh_); }
+    std::unique_ptr<embree_tracer> owned_embree_;
+    const embree_tracer* embree_ = nullptr;
+#else
+    [[nodiscard]] bool is_embree() const noexcept { return false; }
+    template <class F>
+    decltype(auto) dispatch(F&& f) const noexcept { return f(*bvh_); }
+#endif
+    std::unique_ptr<bvh> owned_bvh_;
+    const bvh* bvh_ = nullptr;
+
+public:
+    /// Builds `kind` ("bvh" or "embree") over the scene's triangles; usage_error for another name or for
+    /// "embree" in a build without Embree.
+    scene_tracer(const scene& s, const std::string& kind);
+    scene_tracer(const bvh& borrowed) noexcept : bvh_(&borrowed) {}  // NOLINT: implicit on purpose
+    scene_tracer(scene_tracer&&) noexcept = default;
+    scene_tracer(const scene_tracer&) = delete;
+    scene_tracer& operator=(const scene_tracer&) = delete;
+    ~scene_tracer();
+
+    /// "bvh" or "embree".
+    [[nodiscard]] const char* name() const noexcept { return is_embree() ? "embree" : "bvh"; }
+    [[nodiscard]] std::size_t triangle_count() const noexcept { return dispatch([](const auto& t) { return t.triangle_count(); }); }
+    [[nodiscard]] ray_hit nearest_hit(const glm::vec3& origin, const glm::vec3& direction,
+                                      float t_max = std::numeric_limits<float>::infinity()) const noexcept {
+        return dispatch([&](const auto& t) { return t.nearest_hit(origin, direction, t_max); });
+    }
+    [[nodiscard]] aaf::occluder_span<float> occluder_span(const aaf::shadow_segment<float>& g) const noexcept {
+        return dispatch([&](const auto& t) { return t.occluder_span(g); });
+    }
+    [[nodiscard]] float nearest_occluder(const aaf::shadow_segment<float>& g) const noexcept {
+        return dispatch([&](const auto& t) { return t.nearest_occluder(g); });
+    }
+    [[nodiscard]] bool occluded(const aaf::shadow_segment<float>& g) const noexcept {
+        return dispatch([&](const auto& t) { return t.occluded(g); });
+    }
+
 };
 /// If `flag` is one of the shared options, stores its value (read with `value()`) and returns true.
 bool parse_shared_option(const std::string& flag, const std::function<std::string()>& value, const shared_options& o);
 
-/// The BVH with only its nearest occluder visible: the "first hit" statistics of FORMULAS.md §1.3.
+/// The tracer with only its nearest occluder visible: the "first hit" statistics of FORMULAS.md §1.3.
 struct first_hit_tracer {
-    const bvh* tracer;
+    const scene_tracer* tracer;
     [[nodiscard]] float nearest_occluder(const aaf::shadow_segment<float>& s) const noexcept { return tracer->nearest_occluder(s); }
     // The adaptive pass only asks "occluded?" (shadow_query::visibility): give it the any-hit query too.
     [[nodiscard]] bool occluded(const aaf::shadow_segment<float>& s) const noexcept { return tracer->occluded(s); }
@@ -90,7 +144,7 @@ struct gbuffer_images {
 };
 
 /// Primary rays through every pixel centre of `s`'s camera.
-[[nodiscard]] gbuffer_images render_gbuffer(const scene& s, const bvh& tracer, aaf::thread_pool& pool);
+[[nodiscard]] gbuffer_images render_gbuffer(const scene& s, const scene_tracer& tracer, aaf::thread_pool& pool);
 
 /// Visibility for display and comparison: sky pixels 1, surface pixels without light (NaN) 0.
 [[nodiscard]] aaf::image<float> displayable(const aaf::image<float>& raw, const gbuffer_images& g);
@@ -117,7 +171,7 @@ struct reference_result {
 /// any-hit query and its own loop (independent of aaf's gathering code, which it judges), in chunks (with a
 /// progress bar and an ETA on stderr unless `progress` is false); cached under `cache` (written atomically:
 /// temporary file, rename).
-[[nodiscard]] reference_result reference_visibility(const scene& s, const gbuffer_images& g, const bvh& tracer,
+[[nodiscard]] reference_result reference_visibility(const scene& s, const gbuffer_images& g, const scene_tracer& tracer,
                                                     const reference_params& p, const std::filesystem::path& cache,
                                                     aaf::thread_pool& pool, bool progress = true);
 
@@ -139,7 +193,7 @@ struct mc_result {
 };
 
 /// Unfiltered Monte Carlo: `p.spp` samples per surface pixel of `p.pattern`, averaged.
-[[nodiscard]] mc_result render_mc(const scene& s, const gbuffer_images& g, const bvh& tracer, const mc_params& p,
+[[nodiscard]] mc_result render_mc(const scene& s, const gbuffer_images& g, const scene_tracer& tracer, const mc_params& p,
                                   aaf::thread_pool& pool);
 
 /// Image metrics over the pixels where `mask` is non-zero (an empty mask: every pixel).

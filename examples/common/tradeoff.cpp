@@ -194,13 +194,13 @@ json run(const config& c) {
     if (c.width) s.width = *c.width, s.height = *c.height;
     s.validate();
     aaf::thread_pool pool(c.threads);
-    const bvh tracer(s.vertices, s.triangles);
+    const scene_tracer tracer(s, c.tracer);
     const gbuffer_images g = render_gbuffer(s, tracer, pool);
     if (g.surfaces == 0) throw usage_error("scene '" + s.name + "' shows no surface at " + std::to_string(s.width) + "x" + std::to_string(s.height));
     const std::vector<unsigned char> mask = g.surface_mask();
     if (c.progress)
-        std::fprintf(stderr, "aaf-tradeoff: scene '%s', %zux%zu, %zu triangles, %zu threads, %zu surface pixels, quantity %s\n",
-                     s.name.c_str(), s.width, s.height, tracer.triangle_count(), pool.size(), g.surfaces, to_string(c.what));
+        std::fprintf(stderr, "aaf-tradeoff: scene '%s', %zux%zu, %zu triangles (%s), %zu threads, %zu surface pixels, quantity %s\n",
+                     s.name.c_str(), s.width, s.height, tracer.triangle_count(), tracer.name(), pool.size(), g.surfaces, to_string(c.what));
     const render_inputs in{.s = s, .tracer = tracer, .g = g, .pool = pool, .seed = c.seed, .cache = c.cache, .progress = c.progress};
 
     // The reference: two independent halves (their own frame seeds, never the measured methods'), averaged.

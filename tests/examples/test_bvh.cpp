@@ -246,6 +246,41 @@ void check_structure(const bvh& b, const triangle_mesh& m, unsigned max_leaf) {
     REQUIRE(std::count(slot_seen.begin(), slot_seen.end(), 1) == static_cast<std::ptrdiff_t>(ids.size()));
     REQUIRE(std::set<std::uint32_t>(ids.begin(), ids.end()).size() == ids.size());
     REQUIRE(deepest == b.depth());
+
+    // The wide tree the nearest and any-hit queries walk: every wide node reached once, its used lanes inside
+    // nothing but real boxes and its unused lanes empty, the leaves exactly the binary tree's (each triangle
+    // slot once, inside its lane's box).
+    const auto wide = b.wide_nodes();
+    std::vector<int> wide_seen(wide.size(), 0), wide_slot_seen(ids.size(), 0);
+    std::vector<std::uint32_t> wide_stack{0u};
+    while (!wide_stack.empty() && ok) {
+        const bvh::wide_node& w = wide[wide_stack.back()];
+        ok = ++wide_seen[wide_stack.back()] == 1;
+        wide_stack.pop_back();
+        for (unsigned lane = 0; lane < bvh::wide_lanes && ok; ++lane) {
+            const vec3 lo(w.box[0][lane], w.box[1][lane], w.box[2][lane]), hi(w.box[3][lane], w.box[4][lane], w.box[5][lane]);
+            if (lo.x > hi.x) {  // unused lane: empty box, no children
+                ok = w.count[lane] == 0 && w.index[lane] == 0 && glm::all(glm::greaterThan(lo, hi));
+                continue;
+            }
+            if (w.count[lane] == 0) {
+                ok = w.index[lane] > 0 && w.index[lane] < wide.size();
+                if (ok) wide_stack.push_back(w.index[lane]);
+                continue;
+            }
+            ok = w.count[lane] <= max_leaf && w.index[lane] + w.count[lane] <= ids.size();
+            for (std::uint32_t s = w.index[lane]; ok && s < w.index[lane] + w.count[lane]; ++s) {
+                ok = ++wide_slot_seen[s] == 1;
+                for (int k = 0; k < 3 && ok; ++k) {
+                    const vec3 p = m.vertices[m.triangles[ids[s]][k]];
+                    ok = glm::all(glm::lessThanEqual(lo, p)) && glm::all(glm::lessThanEqual(p, hi));
+                }
+            }
+        }
+    }
+    REQUIRE(ok);
+    REQUIRE(std::count(wide_seen.begin(), wide_seen.end(), 1) == static_cast<std::ptrdiff_t>(wide.size()));
+    REQUIRE(std::count(wide_slot_seen.begin(), wide_slot_seen.end(), 1) == static_cast<std::ptrdiff_t>(ids.size()));
 }
 
 /// Builds, checks the structure and compares `n_rays` random rays with brute force.
