@@ -20,6 +20,7 @@
 #include <aaf/aaf.hpp>
 
 #include "common/bvh.hpp"
+#include "common/methods.hpp"
 #include "common/render_support.hpp"
 #include "common/scene.hpp"
 
@@ -51,6 +52,8 @@ struct options {
     aaf::light_weighting weighting = aaf::light_weighting::uniform;
     float scale = 1;            // the whole scene scaled by this (tests scale independence)
     double origin_offset = -1;  // < 0: automatic (aaf's default); >= 0: a fixed epsilon along the normal
+    std::string method;         // empty: the detailed aaf render; else a method of the registry
+    std::optional<double> knob; // the method's knob (default: the method's own)
 };
 
 const char* const help_text =
@@ -78,6 +81,9 @@ const char* const help_text =
     "  --scale S             scale the whole scene (geometry, light, camera) by S, e.g. 1e-3 or 1e4 [1]\n"
     "  --ray-offset auto|E   shadow-ray origins moved off the surface automatically (ULP offsetting), or\n"
     "                        by a fixed epsilon E in world units, to compare with hand-set epsilons [auto]\n"
+    "  --method NAME         render one method of the registry instead (listed below): writes NAME.png,\n"
+    "                        its own pictures, and the error against its quantity's reference\n"
+    "  --knob X              that method's cost knob [the method's default]\n"
     "  --help                this text\n"
     "Large optional meshes (the sports car) are found through the AAF_SCENES_DIR environment variable.\n";
 
@@ -92,6 +98,7 @@ options parse(int argc, char** argv) {
         };
         if (a == "--help" || a == "-h") {
             std::fputs(help_text, stdout);
+            std::fputs(aaf_examples::method_list_text().c_str(), stdout);
             std::exit(0);
         } else if (aaf_examples::parse_shared_option(a, value, shared)) {
         } else if (a == "--reference-spp") o.reference_spp = parse_count(a, value(), 1, 1u << 20);
@@ -134,8 +141,17 @@ options parse(int argc, char** argv) {
                 o.origin_offset = e;
             }
         }
+        else if (a == "--method") o.method = aaf_examples::find_method(value()).name;
+        else if (a == "--knob") {
+            const std::string v = value();
+            char* end = nullptr;
+            const double x = std::strtod(v.c_str(), &end);
+            if (v.empty() || *end != '\0' || !std::isfinite(x)) throw usage_error("--knob must be a finite number (got '" + v + "')");
+            o.knob = x;
+        }
         else throw usage_error("unknown option '" + a + "' (see --help)");
     }
+    if (o.knob && o.method.empty()) throw usage_error("--knob needs --method (see --help)");
     if (o.cache.empty()) o.cache = o.out / "cache";
     return o;
 }
@@ -179,8 +195,8 @@ private:
     std::vector<std::pair<fs::path, fs::path>> files_;
 };
 
-int run(const options& opt) {
-    const auto t_start = clock_type::now();
+/// The scene with the command line's size, aaf settings and scale applied, validated.
+scene prepare_scene(const options& opt) {
     scene s = aaf_examples::load_scene(opt.scene, opt.scenes_dir);
     if (opt.width) s.width = *opt.width, s.height = *opt.height;
     if (opt.mu) s.aaf.mu = *opt.mu;
@@ -195,6 +211,51 @@ int run(const options& opt) {
         throw usage_error("--max-samples (" + std::to_string(s.aaf.max_samples) + ") is below the initial samples (" +
                           std::to_string(s.aaf.initial_samples) + ")");
     s.validate();
+    return s;
+}
+
+/// --method: one method of the registry at one knob value, its pictures and its error.
+int run_method(const options& opt) {
+    const auto t_start = clock_type::now();
+    const scene s = prepare_scene(opt);
+    const aaf_examples::method& m = aaf_examples::find_method(opt.method);
+    aaf::thread_pool pool(opt.threads);
+    const aaf_examples::bvh bvh(s.vertices, s.triangles);
+    const gbuffer_images g = aaf_examples::render_gbuffer(s, bvh, pool);
+    const aaf_examples::render_inputs in{.s = s, .tracer = bvh, .g = g, .pool = pool, .seed = opt.seed, .cache = opt.cache, .progress = true};
+    const double knob = opt.knob.value_or(m.default_knob);
+    const aaf_examples::method_output out = m.render(in, knob);
+
+    picture_writer pictures(opt.out);
+    pictures.gray(m.name + ".png", out.image);
+    for (const auto& [name, picture] : out.pictures) pictures.gray(m.name + "-" + name + ".png", picture);
+    double error = std::numeric_limits<double>::quiet_NaN();
+    if (opt.reference) {
+        const aaf_examples::reference_output ref = aaf_examples::find_reference(m.what).render(in, opt.reference_spp, 0);
+        aaf::image<aaf::rgb8> rgb(s.width, s.height);
+        error = aaf_examples::rmse(out.image, ref.image, g.surface_mask());
+        aaf::difference_image<float>(out.image.cview(), ref.image.cview(), rgb.view(), 0.1);
+        pictures.gray(std::string("reference-") + aaf_examples::to_string(m.what) + ".png", ref.image);
+        pictures.rgb(m.name + "-error.png", rgb);
+    }
+    pictures.commit();
+
+    const double pixels = static_cast<double>(g.surfaces ? g.surfaces : 1);
+    std::printf("aaf-render: scene '%s', %zux%zu, %zu threads, method %s (%s), %s = %g\n", s.name.c_str(), s.width, s.height, pool.size(),
+                m.name.c_str(), aaf_examples::to_string(m.what), m.knob.c_str(), knob);
+    std::printf("  %-34s %10.1f\n", "total ms", out.total_ms);
+    for (const auto& [stage, ms] : out.stages_ms) std::printf("  %-34s %10.1f\n", (stage + " ms").c_str(), ms);
+    std::printf("  rays per surface pixel: %.2f; working memory %.2f MiB\n", static_cast<double>(out.rays) / pixels,
+                static_cast<double>(out.memory_bytes) / (1024.0 * 1024.0));
+    if (opt.reference) std::printf("  RMSE vs the %u-spp reference: %.5f\n", opt.reference_spp, error);
+    std::printf("pictures in %s (%.1f s)\n", fs::absolute(opt.out).string().c_str(), ms_since(t_start) / 1000.0);
+    return 0;
+}
+
+int run(const options& opt) {
+    if (!opt.method.empty()) return run_method(opt);
+    const auto t_start = clock_type::now();
+    const scene s = prepare_scene(opt);
     const std::size_t w = s.width, h = s.height;
 
     aaf::thread_pool pool(opt.threads);

@@ -43,13 +43,11 @@ const char* const help_text =
     "  --reference-spp N     samples per pixel of the reference, rendered as two independent halves whose\n"
     "                        difference estimates its own RMSE [4096]\n"
     "  --repeat N            timings are the median of N runs (images come from the first) [3]\n"
-    "  --methods A,B,...     methods to run [all]; mc_stratified (the equal-error baseline) is added\n"
-    "                        whenever an aaf_* or preset_* method is chosen. Known: mc_stratified,\n"
-    "                        mc_regular_grid, mc_low_discrepancy (knob: spp, doubling from 1), aaf_fixed\n"
-    "                        (knob: samples per pixel, no adaptive pass), aaf_adaptive, aaf_light_plane,\n"
-    "                        aaf_first_hit, aaf_no_guides, aaf_refined_slopes (knob: mu in 1, 1.5,\n"
-    "                        2, 3, 4; at most round(100 (mu/2)^2) samples), preset_fast,\n"
-    "                        preset_balanced, preset_accurate\n"
+    "  --quantity Q          what to measure: shadow, ambient_occlusion or subsurface (each has its own\n"
+    "                        methods, reference and Monte Carlo baseline) [shadow]\n"
+    "  --methods A,B,...     methods of the quantity to run [all]; its Monte Carlo baseline (shadow:\n"
+    "                        mc_stratified) is added whenever a filtered method is chosen. The registry's\n"
+    "                        methods are listed below\n"
     "  --max-mc-spp N        cap of the baseline's sweep, which otherwise doubles its spp until it is\n"
     "                        below every aaf point's RMSE [1024]\n"
     "  --quick               short sweeps (a test run)\n"
@@ -98,12 +96,14 @@ options parse(int argc, char** argv) {
         };
         if (a == "--help" || a == "-h") {
             std::fputs(help_text, stdout);
+            std::fputs(aaf_examples::method_list_text().c_str(), stdout);
             std::exit(0);
         } else if (aaf_examples::parse_shared_option(a, value, shared)) {
         } else if (a == "--threads") c.threads = parse_count(a, value(), 0, 1024);
         else if (a == "--reference-spp") c.reference_spp = parse_count(a, value(), 2, 1u << 20);
         else if (a == "--repeat") c.repeat = parse_count(a, value(), 1, 1000);
         else if (a == "--max-mc-spp") c.max_mc_spp = parse_count(a, value(), 1, 1u << 16);
+        else if (a == "--quantity") c.what = aaf_examples::parse_quantity(value());
         else if (a == "--methods") {
             c.methods = split_list(value());
             aaf_examples::tradeoff::check_methods(c.methods);

@@ -7,6 +7,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <string>
 #include <utility>
@@ -29,7 +30,9 @@ struct render_inputs {
     const bvh& tracer;
     const gbuffer_images& g;
     aaf::thread_pool& pool;
-    std::uint32_t seed = 0;  ///< frame seed of the measured render (references use their own)
+    std::uint32_t seed = 0;            ///< frame seed of the measured render (references use their own)
+    std::filesystem::path cache = {};  ///< where references are cached between runs (empty: not cached)
+    bool progress = false;             ///< long renders (references) may report progress on stderr
 };
 
 /// The quantity a method estimates; it decides which converged reference the method is judged against.
@@ -42,10 +45,12 @@ enum class quantity {
 /// What one render of a method at one knob value gives back.
 struct method_output {
     aaf::image<float> image;                                           ///< displayable result (sky as the quantity says)
+    double total_ms = 0;                                               ///< the whole render, as a user would time it
     std::uint64_t rays = 0;                                            ///< rays traced (of any kind), for rays per surface pixel
     std::size_t memory_bytes = 0;                                      ///< working memory beyond the G-buffer (maps, statistics)
     std::vector<std::pair<std::string, double>> stages_ms;             ///< named stages' times, e.g. {"rays", 12.5}
     std::vector<std::pair<std::string, aaf::image<float>>> pictures;   ///< extra pictures for aaf-render (heat maps, ...)
+    nlohmann::json point_settings = nlohmann::json::object();          ///< settings that vary along the knob, for the JSON
 };
 
 /// One technique with its cost knob.
@@ -55,10 +60,22 @@ struct method {
     quantity what = quantity::shadow;  ///< which reference judges it
     std::string knob;                  ///< what its sweep varies ("spp", "mu", "map_size", ...)
     std::vector<double> sweep;         ///< aaf-tradeoff's knob values, cheapest first
+    std::vector<double> quick_sweep;   ///< the short sweep of --quick (tests); empty: the first two of `sweep`
+    /// Monte Carlo baselines: the knob doubles from 1 until the error is below every filtered method's (or a
+    /// cap), instead of following `sweep`.
+    bool doubling_sweep = false;
     double default_knob = 0;           ///< aaf-render's value when --knob is not given
     std::string help;                  ///< one line for --help
     nlohmann::json settings;           ///< everything fixed besides the knob, for the JSON record
     std::function<method_output(const render_inputs&, double knob)> render;
+};
+
+/// A reference image and what it cost (a lambda may return just the image).
+struct reference_output {
+    aaf::image<float> image;  ///< displayable, like the methods' images
+    double ms = 0;            ///< rendering time (0 when read from a cache)
+    bool from_cache = false;
+    reference_output(aaf::image<float> i, double t = 0, bool cached = false) : image(std::move(i)), ms(t), from_cache(cached) {}
 };
 
 /// How a quantity's converged reference is made (the shadow reference is aaf_examples::reference_visibility).
@@ -68,7 +85,7 @@ struct quantity_reference {
     std::string baseline_method;  ///< the Monte Carlo method equal-error ratios are taken against
     /// The reference image with `samples` samples per pixel and frame seed `seed` (two such halves with
     /// different seeds are averaged, their difference estimating the reference's own error).
-    std::function<aaf::image<float>(const render_inputs&, std::uint32_t samples, std::uint32_t seed)> render;
+    std::function<reference_output(const render_inputs&, std::uint32_t samples, std::uint32_t seed)> render;
 };
 
 /// A family's contribution: its methods and, for a new quantity, its reference.
@@ -83,5 +100,14 @@ struct method_family {
 [[nodiscard]] const method& find_method(const std::string& name);
 /// The reference of `q`; usage_error when no family registered one.
 [[nodiscard]] const quantity_reference& find_reference(quantity q);
+/// Every method as `--help` lists it: name, quantity, knob (default, sweep) and its line of help.
+[[nodiscard]] std::string method_list_text();
+/// "shadow", "ambient_occlusion", "subsurface".
+[[nodiscard]] const char* to_string(quantity q) noexcept;
+/// The quantity called `name`; usage_error listing the known names otherwise.
+[[nodiscard]] quantity parse_quantity(const std::string& name);
+
+/// The families, each defined in its own file: the shadow family (Monte Carlo, aaf and its presets) here.
+[[nodiscard]] method_family shadow_methods();
 
 }  // namespace aaf_examples

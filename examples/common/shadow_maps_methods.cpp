@@ -35,6 +35,7 @@ method_output render_single_map(const render_inputs& in, std::size_t map_size, c
     if (!aaf::fit_perspective_view(gb, light.center(), light.normal(), 1e-3f, 8.0f, view)) {
         for (std::size_t i = 0; i < out.image.size(); ++i)  // nothing in front of the light: unlit
             out.image.data()[i] = in.g.surface(i) ? 0.0f : 1.0f;
+        out.total_ms = ms_since(t0);
         return out;
     }
     aaf::depth_map<float> map(map_size, map_size, view, aaf::depth_format::unorm24);
@@ -48,6 +49,7 @@ method_output render_single_map(const render_inputs& in, std::size_t map_size, c
         for (std::size_t x = 0; x < out.image.width(); ++x)
             out.image(x, y) = with_light_mask(light, in.g.positions(x, y), in.g.normals(x, y), out.image(x, y));
     out.stages_ms.emplace_back("lookup", ms_since(t1));
+    out.total_ms = ms_since(t0);
     out.memory_bytes = map.storage_bytes();
     return out;
 }
@@ -142,7 +144,8 @@ method_family shadow_map_methods() {
             out.image.reset(in.g.positions.width(), in.g.positions.height());
             const auto t0 = clock_type::now();
             const aaf::accumulation_stats st = aaf::accumulate_hard_shadows(view_of(in.g), in.s.light, in.tracer, s, out.image.view(), in.pool);
-            out.stages_ms.emplace_back("accumulate", ms_since(t0));
+            out.total_ms = ms_since(t0);
+            out.stages_ms.emplace_back("accumulate", out.total_ms);
             out.rays = st.rays;
             out.memory_bytes = st.map_bytes + st.buffer_bytes;
             return out;

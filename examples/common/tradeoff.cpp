@@ -17,6 +17,7 @@
 #include <aaf/settings.hpp>
 
 #include "common/bvh.hpp"
+#include "common/methods.hpp"
 #include "common/render_support.hpp"
 #include "common/scene.hpp"
 
@@ -26,139 +27,6 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 namespace {
-
-enum class method_kind { mc, aaf, preset };
-
-/// Everything that defines a method besides its knob's values.
-struct method_def {
-    std::string name;
-    method_kind kind = method_kind::aaf;
-    std::string knob;  ///< "spp", "initial_samples", "mu" or "preset"
-    aaf::sample_pattern pattern = aaf::sample_pattern::stratified;
-    aaf::offset_space space = aaf::offset_space::image;
-    bool first_hit = false;
-    bool guides = true;
-    aaf::frame_preset preset = aaf::frame_preset::balanced;
-    std::string description;
-    aaf::shadow_query adaptive_query = aaf::sampling_settings{}.adaptive_query;  ///< the library's default unless named
-};
-
-const std::vector<method_def>& definitions() {
-    using aaf::offset_space;
-    using aaf::sample_pattern;
-    static const std::vector<method_def> defs = {
-        {"mc_stratified", method_kind::mc, "spp", sample_pattern::stratified, offset_space::image, false, false, {},
-         "unfiltered Monte Carlo, jittered equal-area strata (the equal-error baseline)"},
-        {"mc_regular_grid", method_kind::mc, "spp", sample_pattern::regular_grid, offset_space::image, false, false, {},
-         "unfiltered Monte Carlo, strata centres, same in every pixel"},
-        {"mc_low_discrepancy", method_kind::mc, "spp", sample_pattern::low_discrepancy, offset_space::image, false, false, {},
-         "unfiltered Monte Carlo, Owen-scrambled Sobol'"},
-        {"aaf_fixed", method_kind::aaf, "initial_samples", sample_pattern::stratified, offset_space::image, false, true, {},
-         "aaf filter on a fixed sample count, no adaptive pass"},
-        {"aaf_adaptive", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::image, false, true, {},
-         "aaf: 9 initial samples, visibility-only adaptive pass, image-space offsets, all-hits statistics, normal and ID guides"},
-        {"aaf_light_plane", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::light_plane, false, true, {},
-         "as aaf_adaptive with light-parallel world offsets (positions guide)"},
-        {"aaf_first_hit", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::image, true, true, {},
-         "as aaf_adaptive with first-hit statistics (nearest occluder only)"},
-        {"aaf_no_guides", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::image, false, false, {},
-         "as aaf_adaptive without normal and ID guides"},
-        {"aaf_refined_slopes", method_kind::aaf, "mu", sample_pattern::stratified, offset_space::image, false, true, {},
-         "as aaf_adaptive with adaptive rays that also find occluder distances and refine the slopes "
-         "(shadow_query::distances)",
-         aaf::shadow_query::distances},
-        {"preset_fast", method_kind::preset, "preset", sample_pattern::stratified, offset_space::image, false, true,
-         aaf::frame_preset::fast, "aaf::preset(frame_preset::fast)"},
-        {"preset_balanced", method_kind::preset, "preset", sample_pattern::stratified, offset_space::image, false, true,
-         aaf::frame_preset::balanced, "aaf::preset(frame_preset::balanced)"},
-        {"preset_accurate", method_kind::preset, "preset", sample_pattern::stratified, offset_space::image, false, true,
-         aaf::frame_preset::accurate, "aaf::preset(frame_preset::accurate)"},
-    };
-    return defs;
-}
-
-/// The adaptive sweeps' cap on samples per pixel: ∝ μ², 100 at the paper's μ = 2 (the formulas' n grows
-/// as μ², so the cap binds equally often at every μ).
-std::uint32_t max_samples_for_mu(double mu) { return static_cast<std::uint32_t>(std::lround(100.0 * (mu / 2) * (mu / 2))); }
-
-/// The settings of one point of an aaf or preset method.
-aaf::frame_settings<float> aaf_settings(const method_def& m, double knob, const config& c, const scene& s) {
-    aaf::frame_settings<float> fs = m.kind == method_kind::preset ? aaf::preset<float>(m.preset) : aaf::frame_settings<float>{};
-    if (m.kind == method_kind::aaf) {
-        if (m.knob == "initial_samples") {
-            fs.sampling.initial_samples = fs.sampling.max_samples = static_cast<std::uint32_t>(knob);
-            fs.sampling.adaptive = false;
-        } else {
-            fs.formulas.mu = static_cast<float>(knob);
-            fs.sampling.initial_samples = 9;
-            fs.sampling.max_samples = std::max<std::uint32_t>(9, max_samples_for_mu(knob));
-        }
-        fs.filter.space = m.space;
-        fs.sampling.adaptive_query = m.adaptive_query;
-        // render_frame always filters with normals (and IDs when the G-buffer has them): a threshold of
-        // 180° accepts every finite normal, which is the normal guide switched off.
-        if (!m.guides) fs.filter.normal_threshold_degrees = 180;
-    }
-    fs.sampling.frame_seed = c.seed;
-    fs.radiance = s.radiance;
-    return fs;
-}
-
-json settings_json(const method_def& m, const config& c) {
-    json j;
-    j["description"] = m.description;
-    j["frame_seed"] = c.seed;
-    j["weighting"] = "uniform";
-    j["ray_origin_offset"] = "automatic (ULP offsetting)";
-    if (m.kind == method_kind::mc) {
-        j["pattern"] = aaf::to_string(m.pattern);
-        j["knob"] = "spp: samples per surface pixel, doubling from 1";
-        j["tracer"] = "BVH any-hit (visibility only)";
-        j["filter"] = "none";
-        j["sample_pass"] = 0;
-        return j;
-    }
-    // Everything that defines an aaf frame, from the settings of its first point (the knob's fields vary).
-    const scene dummy{};
-    const aaf::frame_settings<float> fs = aaf_settings(m, m.knob == "initial_samples" ? 9.0 : 2.0, c, dummy);
-    j["pattern"] = aaf::to_string(fs.sampling.pattern);
-    if (m.kind == method_kind::preset) {
-        j["knob"] = "none (one point)";
-        j["initial_samples"] = fs.sampling.initial_samples;
-        j["max_samples"] = fs.sampling.max_samples;
-        j["mu"] = fs.formulas.mu;
-    } else if (m.knob == "initial_samples") {
-        j["knob"] = "initial_samples = max_samples (fixed samples per pixel)";
-        j["mu"] = fs.formulas.mu;
-    } else {
-        j["knob"] = "mu";
-        j["initial_samples"] = fs.sampling.initial_samples;
-        j["max_samples_rule"] = "max(9, round(100 * (mu / 2)^2)): proportional to mu^2, 100 at mu = 2";
-    }
-    j["adaptive"] = fs.sampling.adaptive;
-    if (fs.sampling.adaptive)
-        j["adaptive_query"] = fs.sampling.adaptive_query == aaf::shadow_query::visibility ? "visibility" : "distances";
-    j["offsets"] = fs.filter.space == aaf::offset_space::light_plane ? "light_plane" : "image";
-    json guides = json::array();
-    if (m.guides) guides.push_back("normals"), guides.push_back("ids");
-    if (fs.filter.space == aaf::offset_space::light_plane) guides.push_back("positions");
-    j["guides"] = guides;
-    j["normal_threshold_degrees"] = fs.filter.normal_threshold_degrees;
-    j["stats"] = m.first_hit ? "first_hit" : "all_hits";
-    j["tracer"] = m.first_hit ? "BVH nearest occluder" : "BVH nearest and farthest occluder";
-    // Both tracers answer occluded(), which a visibility-only adaptive pass asks instead.
-    if (fs.sampling.adaptive && fs.sampling.adaptive_query == aaf::shadow_query::visibility)
-        j["tracer"] = j["tracer"].get<std::string>() + "; any-hit in the adaptive pass";
-    j["formula_form"] = fs.formulas.form == aaf::formula_form::paper ? "paper" : "authors";
-    j["k"] = fs.formulas.k;
-    j["alpha"] = fs.formulas.alpha;
-    j["truncation"] = fs.filter.truncation;
-    j["max_radius"] = fs.filter.max_radius;
-    j["spread_slopes"] = fs.filter.spread_slopes;
-    j["spread_radius"] = fs.filter.spread_radius;
-    j["spread_guide"] = m.guides ? "ids" : "none";
-    return j;
-}
 
 std::string fmt(const char* f, double v) {
     char buf[64];
@@ -179,81 +47,53 @@ double median(std::vector<double> v) {
 
 /// One point of one method: its image's errors (from its first run) and the timings of every run.
 struct measurement {
-    const method_def* def = nullptr;
+    const method* def = nullptr;
     double knob = 0;
     std::uint64_t rays = 0;
+    std::size_t memory_bytes = 0;
     double rmse = 0, ssim = 0, max_abs_error = 0;
     json extra = json::object();  ///< the settings fields that vary along the knob
-    std::vector<double> total_ms, rays_ms, formulas_ms, filter_ms;
+    std::vector<double> total_ms;
+    std::vector<std::pair<std::string, std::vector<double>>> stages_ms;  ///< per named stage, every run
 };
 
 struct context {
-    const config& c;
-    const scene& s;
-    const bvh& tracer;
-    const gbuffer_images& g;
+    const render_inputs& in;
     const aaf::image<float>& reference;
     const std::vector<unsigned char>& mask;
-    aaf::thread_pool& pool;
 };
-
-/// One aaf frame into `out`, its timings appended to `m`.
-template <class Ids, class Tracer>
-void time_aaf(const aaf::gbuffer<float, Ids>& gb, const scene& s, const Tracer& tracer, const aaf::frame_settings<float>& fs,
-              aaf::image<float>& out, measurement& m, aaf::thread_pool& pool) {
-    aaf::frame_workspace<float> ws;
-    ws.resize(s.width, s.height);  // allocation is not part of a frame
-    const aaf::frame_report rep = aaf::render_frame(gb, s.light, tracer, {out.view()}, ws, fs, pool);
-    m.rays = rep.rays();
-    m.total_ms.push_back(rep.total_ms);
-    m.rays_ms.push_back(rep.initial_ms + rep.adaptive_ms);
-    m.formulas_ms.push_back(rep.formulas_ms);
-    m.filter_ms.push_back(rep.filter_ms);
-}
 
 /// Renders point `m` once more, appending its timings; the first time also measures its errors.
 void run_point(const context& ctx, measurement& m) {
     const bool first = m.total_ms.empty();
-    const method_def& def = *m.def;
-    aaf::image<float> image(ctx.s.width, ctx.s.height);
-    if (def.kind == method_kind::mc) {
-        mc_result res = render_mc(ctx.s, ctx.g, ctx.tracer,
-                                  {.pattern = def.pattern, .spp = static_cast<std::uint32_t>(m.knob), .seed = ctx.c.seed, .pass = 0}, ctx.pool);
-        m.total_ms.push_back(res.total_ms);
-        m.rays_ms.push_back(res.rays_ms);
-        m.rays = res.rays;
-        image = std::move(res.visibility);
-    } else {
-        const aaf::frame_settings<float> fs = aaf_settings(def, m.knob, ctx.c, ctx.s);
-        const gbuffer_images& g = ctx.g;
-        const auto render = [&](const auto& gb) {  // with the method's tracer
-            if (def.first_hit) time_aaf(gb, ctx.s, first_hit_tracer{&ctx.tracer}, fs, image, m, ctx.pool);
-            else time_aaf(gb, ctx.s, ctx.tracer, fs, image, m, ctx.pool);
-        };
-        if (def.guides)
-            render(aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>>{g.positions.cview(), g.normals.cview(),
-                                                                             g.pixel_size.cview(), g.ids.cview()});
-        else
-            render(aaf::gbuffer<float>{g.positions.cview(), g.normals.cview(), g.pixel_size.cview()});
-        m.extra = {{"initial_samples", fs.sampling.initial_samples}, {"max_samples", fs.sampling.max_samples}, {"mu", fs.formulas.mu}};
+    method_output out = m.def->render(ctx.in, m.knob);
+    m.total_ms.push_back(out.total_ms);
+    m.rays = out.rays;
+    m.memory_bytes = out.memory_bytes;
+    for (auto& [name, ms] : out.stages_ms) {
+        auto it = std::find_if(m.stages_ms.begin(), m.stages_ms.end(), [&](const auto& st) { return st.first == name; });
+        if (it == m.stages_ms.end()) it = m.stages_ms.insert(m.stages_ms.end(), {name, {}});
+        it->second.push_back(ms);
     }
     if (first) {
-        m.rmse = rmse(image, ctx.reference, ctx.mask);
-        m.ssim = ssim(image, ctx.reference, ctx.mask);
-        m.max_abs_error = max_abs_error(image, ctx.reference, ctx.mask);
+        m.extra = std::move(out.point_settings);
+        m.rmse = rmse(out.image, ctx.reference, ctx.mask);
+        m.ssim = ssim(out.image, ctx.reference, ctx.mask);
+        m.max_abs_error = max_abs_error(out.image, ctx.reference, ctx.mask);
     }
 }
 
 json point_json(const context& ctx, const measurement& m) {
-    const double pixels = static_cast<double>(std::max<std::size_t>(ctx.g.surfaces, 1));
+    const double pixels = static_cast<double>(std::max<std::size_t>(ctx.in.g.surfaces, 1));
     json p;
     p["knob_value"] = m.knob;
     p["rays_per_pixel"] = static_cast<double>(m.rays) / pixels;
     p["time_ms"] = median(m.total_ms);
-    p["rays_ms"] = median(m.rays_ms);
-    p["filter_ms"] = m.filter_ms.empty() ? 0.0 : median(m.filter_ms);
-    if (!m.formulas_ms.empty()) p["formulas_ms"] = median(m.formulas_ms);
+    p["rays_ms"] = 0.0;    // every method reports these two, 0 when it has no such stage
+    p["filter_ms"] = 0.0;
+    for (const auto& [name, runs] : m.stages_ms) p[name + "_ms"] = median(runs);
     p["filter_share"] = p["time_ms"].get<double>() > 0 ? p["filter_ms"].get<double>() / p["time_ms"].get<double>() : 0.0;
+    p["memory_bytes"] = m.memory_bytes;
     p["rmse"] = m.rmse;
     p["ssim"] = m.ssim;
     p["max_abs_error"] = m.max_abs_error;
@@ -284,25 +124,37 @@ void write_file(const fs::path& file, const std::string& text) {
     if (!f) throw std::runtime_error("cannot write " + file.string());
 }
 
+/// The methods a run measures: those named (or all) of the run's quantity, with its baseline first.
+std::vector<const method*> select_methods(const config& c, const std::string& baseline) {
+    check_methods(c.methods);
+    std::vector<const method*> selected;
+    bool any_filtered = false;
+    for (const method& m : all_methods()) {
+        const bool named = std::find(c.methods.begin(), c.methods.end(), m.name) != c.methods.end();
+        if (named && m.what != c.what)
+            throw usage_error("method '" + m.name + "' estimates " + to_string(m.what) + ", not " + to_string(c.what) +
+                              " (choose it with --quantity " + to_string(m.what) + ")");
+        if (m.what != c.what || !(c.methods.empty() || named)) continue;
+        selected.push_back(&m);
+        any_filtered |= !m.doubling_sweep;
+    }
+    // equal_error needs the baseline.
+    if (any_filtered && std::none_of(selected.begin(), selected.end(), [&](const method* m) { return m->name == baseline; }))
+        selected.insert(selected.begin(), &find_method(baseline));
+    return selected;
+}
+
 }  // namespace
 
-const std::vector<std::string>& method_names() {
-    static const std::vector<std::string> names = [] {
-        std::vector<std::string> n;
-        for (const method_def& d : definitions()) n.push_back(d.name);
-        return n;
-    }();
-    return names;
+std::vector<std::string> method_names(quantity what) {
+    std::vector<std::string> n;
+    for (const method& m : all_methods())
+        if (m.what == what) n.push_back(m.name);
+    return n;
 }
 
 void check_methods(const std::vector<std::string>& methods) {
-    const auto& known = method_names();
-    for (const std::string& m : methods)
-        if (std::find(known.begin(), known.end(), m) == known.end()) {
-            std::string list;
-            for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
-            throw usage_error("unknown method '" + m + "' (known: " + list + ")");
-        }
+    for (const std::string& m : methods) (void)find_method(m);
 }
 
 equal_cost equal_error_cost(std::vector<curve_point> pts, double target) {
@@ -331,18 +183,11 @@ equal_cost equal_error_cost(std::vector<curve_point> pts, double target) {
 }
 
 json run(const config& c) {
-    check_methods(c.methods);
+    const quantity_reference& qref = find_reference(c.what);
+    const std::string& baseline = qref.baseline_method;
+    const std::vector<const method*> selected = select_methods(c, baseline);
+    const bool any_filtered = std::any_of(selected.begin(), selected.end(), [](const method* m) { return !m->doubling_sweep; });
     const auto t_start = clock_type::now();
-    std::vector<const method_def*> selected;
-    bool any_aaf = false;
-    for (const method_def& d : definitions())
-        if (c.methods.empty() || std::find(c.methods.begin(), c.methods.end(), d.name) != c.methods.end()) {
-            selected.push_back(&d);
-            any_aaf |= d.kind != method_kind::mc;
-        }
-    // equal_error needs the baseline.
-    if (any_aaf && std::none_of(selected.begin(), selected.end(), [](const method_def* d) { return d->name == baseline_method; }))
-        selected.insert(selected.begin(), &definitions().front());
 
     if (c.repeat < 1) throw usage_error("--repeat must be >= 1");
     scene s = load_scene(c.scene, c.scenes_dir);
@@ -354,67 +199,67 @@ json run(const config& c) {
     if (g.surfaces == 0) throw usage_error("scene '" + s.name + "' shows no surface at " + std::to_string(s.width) + "x" + std::to_string(s.height));
     const std::vector<unsigned char> mask = g.surface_mask();
     if (c.progress)
-        std::fprintf(stderr, "aaf-tradeoff: scene '%s', %zux%zu, %zu triangles, %zu threads, %zu surface pixels\n", s.name.c_str(), s.width,
-                     s.height, tracer.triangle_count(), pool.size(), g.surfaces);
+        std::fprintf(stderr, "aaf-tradeoff: scene '%s', %zux%zu, %zu triangles, %zu threads, %zu surface pixels, quantity %s\n",
+                     s.name.c_str(), s.width, s.height, tracer.triangle_count(), pool.size(), g.surfaces, to_string(c.what));
+    const render_inputs in{.s = s, .tracer = tracer, .g = g, .pool = pool, .seed = c.seed, .cache = c.cache, .progress = c.progress};
 
     // The reference: two independent halves (their own frame seeds, never the measured methods'), averaged.
     // With σ² the variance of one half, the difference of the halves has variance 2σ² and their average
     // σ²/2: RMSE(a − b) / 2 estimates the average's own RMSE (its noise; bias both halves share is unseen).
     const std::uint32_t half = std::max<std::uint32_t>(1, c.reference_spp / 2);
     const std::uint32_t seed_a = c.seed ^ 0x52454641u, seed_b = c.seed ^ 0x52454642u;  // "REFA", "REFB"
-    const fs::path cache = c.cache;
-    reference_result ra = reference_visibility(s, g, tracer, {.spp = half, .seed = seed_a}, cache, pool, c.progress);
-    reference_result rb = reference_visibility(s, g, tracer, {.spp = half, .seed = seed_b}, cache, pool, c.progress);
-    const aaf::image<float> va = displayable(ra.visibility, g), vb = displayable(rb.visibility, g);
+    const reference_output ra = qref.render(in, half, seed_a);
+    const reference_output rb = qref.render(in, half, seed_b);
     aaf::image<float> reference(s.width, s.height);
-    for (std::size_t i = 0; i < reference.size(); ++i) reference.data()[i] = 0.5f * (va.data()[i] + vb.data()[i]);
-    const double reference_rmse = 0.5 * rmse(va, vb, mask);
+    for (std::size_t i = 0; i < reference.size(); ++i) reference.data()[i] = 0.5f * (ra.image.data()[i] + rb.image.data()[i]);
+    const double reference_rmse = 0.5 * rmse(ra.image, rb.image, mask);
     if (c.progress)
         std::fprintf(stderr, "reference: %u spp (2 x %u)%s, estimated RMSE %.5f\n", 2 * half, half,
                      ra.from_cache && rb.from_cache ? " (cached)" : "", reference_rmse);
 
-    const context ctx{c, s, tracer, g, reference, mask, pool};
+    const context ctx{in, reference, mask};
     // Every point is rendered once (image, errors, first timing), in method order; then `repeat - 1` more
     // rounds time every point again. Interleaving the rounds spreads each point's runs over the whole
     // measurement, so a burst of load from elsewhere on the machine lands in one run of many points
     // (which the median discards) rather than in every run of one method.
     std::vector<measurement> points;  // in the order measured
-    const auto measure = [&](const method_def* d, double knob) -> const measurement& {
+    const auto measure = [&](const method* d, double knob) -> const measurement& {
         measurement m;
         m.def = d, m.knob = knob;
         run_point(ctx, m);
         if (c.progress) {
-            const std::string k = d->kind == method_kind::preset ? std::string("preset") : d->knob + "=" + fmt("%g", knob);
+            const std::string k = d->sweep.size() == 1 && d->knob == "preset" ? std::string("preset") : d->knob + "=" + fmt("%g", knob);
+            double filter_ms = 0;
+            for (const auto& [name, runs] : m.stages_ms)
+                if (name == "filter") filter_ms = runs.back();
             std::fprintf(stderr, "  %-19s %-19s %8.2f rays/px %9.1f ms (filter %6.1f)  rmse %.5f  ssim %.4f\n", d->name.c_str(),
-                         k.c_str(), static_cast<double>(m.rays) / static_cast<double>(g.surfaces), m.total_ms.back(),
-                         m.filter_ms.empty() ? 0.0 : m.filter_ms.back(), m.rmse, m.ssim);
+                         k.c_str(), static_cast<double>(m.rays) / static_cast<double>(g.surfaces), m.total_ms.back(), filter_ms, m.rmse,
+                         m.ssim);
         }
         points.push_back(std::move(m));
         return points.back();
     };
-    double min_aaf_rmse = std::numeric_limits<double>::infinity();
-    // aaf and presets first: their lowest error tells the baseline how far to go.
-    for (const method_def* d : selected) {
-        if (d->kind == method_kind::mc) continue;
-        std::vector<double> knobs;
-        if (d->kind == method_kind::preset) knobs = {0};
-        else if (d->knob == "initial_samples") knobs = c.quick ? std::vector<double>{4, 16} : std::vector<double>{4, 9, 16, 25, 36};
-        else knobs = c.quick ? std::vector<double>{1, 2} : std::vector<double>{1, 1.5, 2, 3, 4};
-        for (double k : knobs) min_aaf_rmse = std::min(min_aaf_rmse, measure(d, k).rmse);
+    double min_filtered_rmse = std::numeric_limits<double>::infinity();
+    // Methods with a fixed sweep first: their lowest error tells the baseline how far to go.
+    for (const method* d : selected) {
+        if (d->doubling_sweep) continue;
+        std::vector<double> knobs = d->sweep;
+        if (c.quick) knobs = !d->quick_sweep.empty() ? d->quick_sweep : std::vector<double>(d->sweep.begin(), d->sweep.begin() + std::min<std::size_t>(2, d->sweep.size()));
+        for (double k : knobs) min_filtered_rmse = std::min(min_filtered_rmse, measure(d, k).rmse);
     }
-    // Unfiltered MC: the baseline doubles its spp until it is below every aaf point's error (so equal error
+    // Unfiltered MC: the baseline doubles its spp until it is below every other point's error (so equal error
     // is interpolated) or reaches max_mc_spp; the other samplers sweep as far, at most 256 spp.
     std::uint32_t baseline_last = std::max<std::uint32_t>(1, c.max_mc_spp);
     std::map<std::string, std::uint32_t> mc_cap;
-    for (const method_def* d : selected) {
-        if (d->kind != method_kind::mc) continue;
-        const bool is_baseline = d->name == baseline_method;
+    for (const method* d : selected) {
+        if (!d->doubling_sweep) continue;
+        const bool is_baseline = d->name == baseline;
         const std::uint32_t cap = is_baseline ? std::max<std::uint32_t>(1, c.max_mc_spp) : std::min<std::uint32_t>(256, baseline_last);
         mc_cap[d->name] = cap;
         for (std::uint32_t spp = 1; spp <= cap; spp *= 2) {
             const double e = measure(d, spp).rmse;
             if (is_baseline) baseline_last = spp;
-            if (is_baseline && any_aaf && e <= min_aaf_rmse) break;
+            if (is_baseline && any_filtered && e <= min_filtered_rmse) break;
             if (spp > cap / 2) break;  // no overflow past 2^31
         }
     }
@@ -423,15 +268,16 @@ json run(const config& c) {
         for (measurement& m : points) run_point(ctx, m);
     }
 
-    json methods = json::object();  // by name; ordered as definitions() at the end
+    json methods = json::object();  // by name; ordered as the registry at the end
     for (const measurement& m : points) {
-        const method_def& d = *m.def;
+        const method& d = *m.def;
         if (!methods.contains(d.name)) {
-            json j{{"name", d.name}, {"kind", d.kind == method_kind::mc ? "mc" : d.kind == method_kind::preset ? "preset" : "aaf"},
-                   {"knob", d.knob}, {"settings", settings_json(d, c)}, {"points", json::array()}};
-            if (d.kind == method_kind::mc) j["settings"]["max_spp"] = mc_cap[d.name];
-            if (d.name == baseline_method)
-                j["settings"]["stop_rule"] = "doubling until the RMSE is below every aaf and preset point's, or max_mc_spp";
+            json j{{"name", d.name}, {"kind", d.family}, {"knob", d.knob}, {"settings", d.settings}, {"points", json::array()}};
+            j["settings"]["frame_seed"] = c.seed;
+            if (!j["settings"].contains("description")) j["settings"]["description"] = d.help;
+            if (d.doubling_sweep) j["settings"]["max_spp"] = mc_cap[d.name];
+            if (d.name == baseline)
+                j["settings"]["stop_rule"] = "doubling until the RMSE is below every other method's point, or max_mc_spp";
             methods[d.name] = std::move(j);
         }
         methods[d.name]["points"].push_back(point_json(ctx, m));
@@ -440,6 +286,8 @@ json run(const config& c) {
     json result;
     result["format"] = 1;
     result["generator"] = "aaf-tradeoff";
+    result["quantity"] = to_string(c.what);
+    result["baseline"] = baseline;
     result["scene"] = s.name;
     result["width"] = s.width;
     result["height"] = s.height;
@@ -457,18 +305,19 @@ json run(const config& c) {
     result["reference_ms"] = ra.ms + rb.ms;
     result["reference_from_cache"] = ra.from_cache && rb.from_cache;
     result["metric_mask"] = "surface pixels";
-    result["metrics"] = "rmse, max_abs_error and ssim (Wang et al. 2004, 11x11 Gaussian window sigma 1.5, C1 = 0.01^2, "
-                        "C2 = 0.03^2, windows restricted to surface pixels) of visibility in [0, 1] against the reference";
-    result["rays_per_pixel_unit"] = "shadow rays traced / surface pixels";
-    result["timing"] = "median of `repeat` runs of the whole frame (time_ms), its tracing (rays_ms), formulas and filter, "
+    result["metrics"] = std::string("rmse, max_abs_error and ssim (Wang et al. 2004, 11x11 Gaussian window sigma 1.5, C1 = 0.01^2, "
+                                    "C2 = 0.03^2, windows restricted to surface pixels) of ") +
+                        to_string(c.what) + " in [0, 1] against the reference";
+    result["rays_per_pixel_unit"] = "rays traced / surface pixels";
+    result["timing"] = "median of `repeat` runs of the whole frame (time_ms) and of each of its named stages (<stage>_ms), "
                        "each taken separately; the runs are interleaved rounds over all points; images and errors from the first run";
     result["methods"] = json::array();
-    for (const method_def& d : definitions())
+    for (const method& d : all_methods())
         if (methods.contains(d.name)) result["methods"].push_back(methods[d.name]);
 
     json eq = json::array();
-    if (methods.contains(baseline_method)) {
-        const std::vector<curve_point> base = curve_of(methods[baseline_method]);
+    if (methods.contains(baseline)) {
+        const std::vector<curve_point> base = curve_of(methods[baseline]);
         for (const json& m : result["methods"]) {
             if (m["kind"] == "mc") continue;
             for (std::size_t i = 0; i < m["points"].size(); ++i) {
@@ -476,7 +325,7 @@ json run(const config& c) {
                 const double e = p["rmse"].get<double>(), rays = p["rays_per_pixel"].get<double>(), t = p["time_ms"].get<double>();
                 if (base.empty() || !(e > 0) || !(rays > 0) || !(t > 0)) continue;
                 const equal_cost ec = equal_error_cost(base, e);
-                eq.push_back(json{{"method", m["name"]}, {"point", i}, {"knob_value", p["knob_value"]}, {"baseline", baseline_method},
+                eq.push_back(json{{"method", m["name"]}, {"point", i}, {"knob_value", p["knob_value"]}, {"baseline", baseline},
                               {"rmse", e}, {"rays_per_pixel", rays}, {"time_ms", t}, {"baseline_rays_per_pixel", ec.rays},
                               {"baseline_time_ms", ec.time}, {"rays_ratio", ec.rays / rays}, {"time_ratio", ec.time / t},
                               {"extrapolated", ec.extrapolated}, {"bound", ec.bound}});
@@ -485,10 +334,10 @@ json run(const config& c) {
     }
     result["equal_error"] = std::move(eq);
     result["run_ms"] = ms_since(t_start);
-    if (c.progress && std::isfinite(min_aaf_rmse) && reference_rmse > 0.3 * min_aaf_rmse)
-        std::fprintf(stderr, "aaf-tradeoff: note: the reference's own RMSE (%.5f) is not small next to the best aaf RMSE (%.5f): it "
+    if (c.progress && std::isfinite(min_filtered_rmse) && reference_rmse > 0.3 * min_filtered_rmse)
+        std::fprintf(stderr, "aaf-tradeoff: note: the reference's own RMSE (%.5f) is not small next to the best filtered RMSE (%.5f): it "
                              "adds in quadrature to every point's (equal-error ratios, compared at equal measured error, stay "
-                             "fair); raise --reference-spp for truer absolute errors\n", reference_rmse, min_aaf_rmse);
+                             "fair); raise --reference-spp for truer absolute errors\n", reference_rmse, min_filtered_rmse);
     return result;
 }
 
@@ -512,7 +361,7 @@ std::string summary_markdown(const json& r) {
         }
         o << "\n";
     }
-    o << "## Equal error against " << baseline_method << "\n\n";
+    o << "## Equal error against " << r.value("baseline", std::string(baseline_method)) << "\n\n";
     o << "How many more rays and how much more time unfiltered stratified Monte Carlo needs for the same RMSE "
          "(interpolated on its curve in log-log; \">\" : its sweep never got this low, \"<\" : even 1 spp is as good).\n\n";
     o << "| method | knob | rays/px | time ms | RMSE | MC rays/px | MC time ms | rays ratio | time ratio |\n";

@@ -10,9 +10,11 @@
 //    "threads", "repeat", "seed", "reference_spp", "reference_seeds": [a, b], "reference_rmse_estimate",
 //    "reference_ms", "reference_from_cache", "metric_mask": "surface pixels",
 //    "rays_per_pixel_unit": ..., "timing": ..., "quick", "max_mc_spp",
-//    "methods": [{"name", "kind": "mc"|"aaf"|"preset", "knob", "settings": {...},
+//    "quantity": "shadow"|"ambient_occlusion"|"subsurface", "baseline": the equal-error baseline's name,
+//    "methods": [{"name", "kind": the method's family ("mc"|"aaf"|"preset"|...), "knob", "settings": {...},
 //                 "points": [{"knob_value", "rays_per_pixel", "time_ms", "rays_ms", "filter_ms",
-//                             "formulas_ms" (aaf and presets), "filter_share", "rmse", "ssim",
+//                             "<stage>_ms" for every stage the method names (aaf and presets: "formulas_ms"),
+//                             "filter_share", "memory_bytes", "rmse", "ssim",
 //                             "max_abs_error", "time_ms_runs": [...]}]}],
 //    "equal_error": [{"method", "point", "knob_value", "baseline": "mc_stratified", "rmse", "rays_per_pixel",
 //                     "time_ms", "baseline_rays_per_pixel", "baseline_time_ms", "rays_ratio", "time_ratio",
@@ -26,12 +28,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/methods.hpp"
+
 namespace aaf_examples::tradeoff {
 
-/// Every method aaf-tradeoff knows, in the order they are reported.
-[[nodiscard]] const std::vector<std::string>& method_names();
+/// The registry's methods (examples/common/methods.hpp) that estimate `what`, in the order they are reported.
+[[nodiscard]] std::vector<std::string> method_names(quantity what);
 
-/// The equal-error baseline.
+/// The shadow quantity's equal-error baseline (each quantity's is its quantity_reference::baseline_method).
 inline constexpr const char* baseline_method = "mc_stratified";
 
 struct config {
@@ -44,12 +48,13 @@ struct config {
     std::uint32_t reference_spp = 4096;         ///< total; rendered as two independent halves
     std::uint32_t repeat = 3;                   ///< timings are the median of this many runs
     std::uint32_t max_mc_spp = 1024;            ///< cap of the stratified baseline's sweep
-    std::vector<std::string> methods;           ///< empty = all; the baseline is added when aaf methods are
+    quantity what = quantity::shadow;           ///< what the run measures: its methods, reference and baseline
+    std::vector<std::string> methods;           ///< empty = all of `what`; the baseline is added when filtered ones are
     bool quick = false;                         ///< short sweeps (tests)
     bool progress = true;                       ///< one line per point on stderr
 };
 
-/// Throws usage_error for an unknown method name (naming it and listing the known ones).
+/// Throws usage_error for an unknown method name (naming it and listing the known ones), from the registry.
 void check_methods(const std::vector<std::string>& methods);
 
 /// Runs everything and returns tradeoff.json's content. Throws scene_error / usage_error / std::exception.

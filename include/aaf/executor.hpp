@@ -11,6 +11,7 @@
 #include <functional>
 #include <mutex>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace aaf {
@@ -20,6 +21,12 @@ inline namespace v0 {
 /// are done. Sub-ranges may run concurrently and in any order; aaf's results never depend on either
 /// (every pixel's samples are keyed by the pixel, not by the thread). Exceptions thrown by `body` must
 /// reach the caller of `parallel_for`.
+///
+/// Per-thread set-up (e.g. the FTZ/DAZ floating-point modes Embree asks for on tracing threads, or a
+/// tracer's per-thread context) is the executor's: `thread_pool` takes a start hook that runs once on each
+/// of its threads before any work; an executor of your own runs yours on its threads. aaf's arithmetic
+/// is FTZ/DAZ-safe: with denormals flushed, frames differ from the IEEE ones only where a weight or
+/// distance is itself denormal (test_embedding.cpp measures it; README "Threads").
 template <class E>
 concept executor = requires(E& e, std::size_t count, std::function<void(std::size_t, std::size_t)> body) {
     { e.parallel_for(count, body) };
@@ -42,8 +49,17 @@ public:
     /// `threads` = total threads including the caller; 0 = std::thread::hardware_concurrency().
     explicit thread_pool(std::size_t threads = 0, std::size_t grain = 1) : grain_(std::max<std::size_t>(grain, 1)) {
         if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-        workers_.reserve(threads - 1);
-        for (std::size_t i = 0; i + 1 < threads; ++i) workers_.emplace_back([this] { worker_loop(); });
+        start(threads - 1, {});
+    }
+
+    /// A pool whose `threads` threads (0 = hardware_concurrency) each call `on_start(i)`, i in [0, threads),
+    /// once before any work, e.g. to set FTZ/DAZ or bind a tracer's per-thread state. Every chunk of work
+    /// then runs on a thread that has run it: the caller of parallel_for only waits (its own thread's modes
+    /// are left alone). `on_start` must not throw (it runs on a std::thread).
+    thread_pool(std::size_t threads, std::size_t grain, std::function<void(std::size_t)> on_start)
+        : grain_(std::max<std::size_t>(grain, 1)), caller_works_(!on_start) {
+        if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+        start(caller_works_ ? threads - 1 : threads, std::move(on_start));
     }
     thread_pool(const thread_pool&) = delete;
     thread_pool& operator=(const thread_pool&) = delete;
@@ -56,7 +72,7 @@ public:
         for (auto& w : workers_) w.join();
     }
 
-    [[nodiscard]] std::size_t size() const noexcept { return workers_.size() + 1; }
+    [[nodiscard]] std::size_t size() const noexcept { return workers_.size() + (caller_works_ ? 1 : 0); }
 
     template <class Body>
     void parallel_for(std::size_t count, Body&& body) {
@@ -73,7 +89,7 @@ public:
             ++generation_;
         }
         wake_.notify_all();
-        run_chunks();
+        if (caller_works_) run_chunks();
         std::unique_lock lock(mutex_);
         done_.wait(lock, [this] { return busy_ == 0; });
         job_ = nullptr;
@@ -81,6 +97,15 @@ public:
     }
 
 private:
+    void start(std::size_t workers, std::function<void(std::size_t)> on_start) {
+        workers_.reserve(workers);
+        for (std::size_t i = 0; i < workers; ++i)
+            workers_.emplace_back([this, i, on_start] {
+                if (on_start) on_start(i);
+                worker_loop();
+            });
+    }
+
     void run_chunks() {
         for (;;) {
             const std::size_t begin = next_.fetch_add(grain_);
@@ -114,6 +139,7 @@ private:
     }
 
     std::size_t grain_;
+    bool caller_works_ = true;  // false with a start hook: only hooked threads run chunks
     std::vector<std::thread> workers_;
     std::mutex call_mutex_;
     std::mutex mutex_;

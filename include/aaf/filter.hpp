@@ -94,6 +94,8 @@ template <pass_direction Dir, offset_space Space, class T, class G>
                                        T e;
                                        if constexpr (Space == offset_space::light_plane)
                                            e = light_plane_distance2(g, nx, ny, p, light_normal) * inv_two_beta2;
+                                       else if constexpr (Space == offset_space::tangent_plane)
+                                           e = light_plane_distance2(g, nx, ny, p, gc.normal) * inv_two_beta2;
                                        else
                                            e = static_cast<T>(k) * static_cast<T>(k) * a;
                                        if (!std::isnan(e)) f(e, v);  // NaN position
@@ -213,7 +215,7 @@ template <class T, class G, offset_space Space>
 struct tap_rows {
     static constexpr bool normals = G::has_normals;
     static constexpr bool ids = G::has_ids;
-    static constexpr bool positions = Space == offset_space::light_plane;
+    static constexpr bool positions = Space != offset_space::image;
     std::size_t stride = 0;
     // Not value-initialised: every element is written by `load` or `fill` before the lanes read it.
     std::unique_ptr<T[]> v, nx, ny, nz, px, py, pz;
@@ -374,8 +376,9 @@ void image_taps(std::size_t n, std::size_t k, T cos_threshold, const T* AAF_DETA
 }
 
 /// Light-plane taps at distance k: the guide masks vectorise; the distances, std::exp and the sums run
-/// per lane in the scalar order (−k side, then +k side).
-template <class T, bool Normals, bool Ids>
+/// per lane in the scalar order (−k side, then +k side). `Tangent`: distances are projected on each
+/// centre's own normal (offset_space::tangent_plane) instead of `ln`.
+template <class T, bool Normals, bool Ids, bool Tangent = false>
 void light_plane_taps(std::size_t n, T k, T cos_threshold, const glm::vec<3, T>& ln, const T* AAF_DETAIL_RESTRICT radius,
                       const T* AAF_DETAIL_RESTRICT inv_two_beta2, T* AAF_DETAIL_RESTRICT sum, T* AAF_DETAIL_RESTRICT wsum,
                       const T* AAF_DETAIL_RESTRICT cnx, const T* AAF_DETAIL_RESTRICT cny, const T* AAF_DETAIL_RESTRICT cnz,
@@ -404,7 +407,9 @@ void light_plane_taps(std::size_t n, T k, T cos_threshold, const glm::vec<3, T>&
     // contracts a·b + c into fma contracts both alike (bitwise equal results).
     const auto add = [&](std::size_t i, const auto& c) {
         const glm::vec<3, T> p{cpx[i], cpy[i], cpz[i]}, q{c.px[i], c.py[i], c.pz[i]};
-        const T weight = std::exp(-light_plane_distance2<T>(q, p, ln) * inv_two_beta2[i]);
+        glm::vec<3, T> axis = ln;
+        if constexpr (Tangent) axis = {cnx[i], cny[i], cnz[i]};
+        const T weight = std::exp(-light_plane_distance2<T>(q, p, axis) * inv_two_beta2[i]);
         if (!std::isfinite(weight)) return;  // NaN position
         sum[i] += weight * c.v[i];
         wsum[i] += weight;
@@ -497,7 +502,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                  const G& g, const glm::vec<3, T>& light_normal, const filter_settings<T>& s, std::size_t y_begin,
                  std::size_t y_end, std::size_t* row_reach, T* decay, pass_workspace<T, G, Space>& ws) {
     constexpr bool horizontal = Dir == pass_direction::horizontal;
-    constexpr bool light_plane = Space == offset_space::light_plane;
+    constexpr bool light_plane = Space != offset_space::image;  // world offsets: light or tangent plane
     const std::size_t w = src.width(), h = src.height();
     const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
 
@@ -559,7 +564,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 };
                 if constexpr (light_plane) {
                     for (std::size_t k = 1; k <= steps; ++k) {
-                        light_plane_taps<T, G::has_normals, G::has_ids>(
+                        light_plane_taps<T, G::has_normals, G::has_ids, Space == offset_space::tangent_plane>(
                             n, static_cast<T>(k), cos_threshold, light_normal, &st.radius[x0], &st.inv_two_beta2[x0],
                             &st.sum[x0], &st.wsum[x0], Cb.nx, Cb.ny, Cb.nz, Cb.id, Cb.px, Cb.py, Cb.pz, side(k, false),
                             side(k, true), lok.data(), rok.data());
@@ -612,7 +617,8 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
 /// * `filter_width` β is per pixel in world units (formulas.hpp); β ≤ 0 or NaN = leave that pixel as is.
 /// * `pixel_size` d is each pixel's projected footprint (world units); image-space offsets use β/d pixels.
 /// * Offsets in `offset_space::light_plane` need `guides.positions` and use distances projected on the
-///   plane of `light_normal`; the window is still sized by β/d.
+///   plane of `light_normal`; the window is still sized by β/d. `offset_space::tangent_plane` needs
+///   `guides.positions` and `guides.normals` (unit) and projects on each centre's own tangent plane.
 /// * Non-finite visibility never spreads: such neighbours are skipped; a non-finite centre takes its
 ///   valid neighbours' average (or stays as it was if it has none).
 /// * `output` may alias neither `visibility` nor `scratch`. All views must have the same size.
@@ -645,6 +651,21 @@ void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
     const std::size_t tasks = (h + detail::filter_rows_per_task - 1) / detail::filter_rows_per_task;
     const auto row = [h](std::size_t task) { return std::min(task * detail::filter_rows_per_task, h); };
     std::vector<std::size_t> row_reach(h);  // each row's largest kernel radius, from the horizontal pass
+    if (s.space == offset_space::tangent_plane) {
+        if constexpr (!G::has_positions || !G::has_normals) {
+            detail::throw_invalid(fn, "`settings.space` is tangent_plane but `guides.positions` or `guides.normals` is absent");
+        } else {
+            constexpr auto space = offset_space::tangent_plane;
+            detail::workspace_pool<detail::pass_workspace<T, G, space>> pool(w);
+            exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
+                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::horizontal, space, T>(visibility, scratch, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach.data(), static_cast<T*>(nullptr), ws); });
+            });
+            exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
+                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::vertical, space, T>(scratch, output, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach.data(), static_cast<T*>(nullptr), ws); });
+            });
+            return;
+        }
+    }
     if (s.space == offset_space::light_plane) {
         if constexpr (!G::has_positions) {
             detail::throw_invalid(fn, "`settings.space` is light_plane but `guides.positions` is absent");

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <type_traits>
 #include <vector>
 
@@ -20,6 +21,7 @@
 #include "image_view.hpp"
 #include "occlusion_stats.hpp"
 #include "ray_offset.hpp"
+#include "region.hpp"
 #include "sampler.hpp"
 #include "settings.hpp"
 #include "tracer.hpp"
@@ -34,12 +36,15 @@ inline namespace v0 {
 ///   (towards the light's side) and as a filter guide. Geometric normals avoid self-shadowing on
 ///   smooth-shaded low-poly meshes; shading normals also work.
 /// * `pixel_size`: projected pixel size d in world units (formulas.hpp: pinhole_pixel_size).
+/// * `region`: where these buffers sit in the full frame (region.hpp). Sample keys use frame coordinates,
+///   so a tile's buffers (with the halo of region_halo) render the tile's pixels exactly as the full frame.
 template <class T = float, class Ids = no_guide>
 struct gbuffer {
     const_image_view<glm::vec<3, T>> positions;
     const_image_view<glm::vec<3, T>> normals;
     const_image_view<T> pixel_size;
     Ids ids{};
+    frame_region region{};
 
     static constexpr bool has_ids = !std::is_same_v<Ids, no_guide>;
     [[nodiscard]] std::size_t width() const noexcept { return positions.width(); }
@@ -48,6 +53,28 @@ struct gbuffer {
 
 namespace detail {
 
+/// The region's frame size is both dimensions or neither, and `w` × `h` buffers placed at its origin lie
+/// inside the frame (and inside the 2^32 × 2^32 key space when the frame's size is unknown).
+inline void require_region(const char* fn, const char* arg, const frame_region& r, std::size_t w, std::size_t h) {
+    const auto fits = [](std::uint64_t origin, std::size_t extent, std::uint64_t limit) {
+        return static_cast<std::uint64_t>(extent) <= limit && origin <= limit - extent;
+    };
+    const auto where = [&] {
+        return std::to_string(w) + "x" + std::to_string(h) + " buffers at (" + std::to_string(r.origin_x) + ", " +
+               std::to_string(r.origin_y) + ")";
+    };
+    if ((r.frame_width == 0) != (r.frame_height == 0))
+        throw_invalid(fn, std::string("`") + arg + "` gives one frame dimension but not the other (" +
+                              std::to_string(r.frame_width) + "x" + std::to_string(r.frame_height) + "); give both or neither");
+    if (r.knows_frame()) {
+        if (!fits(r.origin_x, w, r.frame_width) || !fits(r.origin_y, h, r.frame_height))
+            throw_invalid(fn, std::string("`") + arg + "` places " + where() + ", outside the " + std::to_string(r.frame_width) +
+                                  "x" + std::to_string(r.frame_height) + " frame");
+    } else if (!fits(r.origin_x, w, std::uint64_t{1} << 32) || !fits(r.origin_y, h, std::uint64_t{1} << 32)) {
+        throw_invalid(fn, std::string("`") + arg + "` places " + where() + ", beyond 2^32 pixels");
+    }
+}
+
 template <class T, class Ids>
 void require_gbuffer(const char* fn, const gbuffer<T, Ids>& gb) {
     require_nonempty(fn, "gbuffer.positions", gb.positions);
@@ -55,6 +82,7 @@ void require_gbuffer(const char* fn, const gbuffer<T, Ids>& gb) {
     require_size(fn, "gbuffer.normals", gb.normals, w, h);
     require_size(fn, "gbuffer.pixel_size", gb.pixel_size, w, h);
     if constexpr (gbuffer<T, Ids>::has_ids) require_size(fn, "gbuffer.ids", gb.ids, w, h);
+    require_region(fn, "gbuffer.region", gb.region, w, h);
 }
 
 template <class T>
@@ -67,63 +95,104 @@ void require_light(const char* fn, const area_light<T>& light) {
     if (!(a > T(0))) throw_invalid(fn, "`light` has zero area (its edges are parallel or zero)");
 }
 
-/// Reusable per-thread buffers for one pixel's samples.
+/// The normal a receiver is shaded with. A zero normal (dot(n, n) == 0, which includes normals whose
+/// square underflows) is an orientation-less receiver — hair, particles, a volume's sample point — and
+/// faces the light's centre: every light point within 90° of that direction counts. (Without this, no
+/// sample would be above its horizon and the pixel would silently get no light.)
 template <class T>
-struct pixel_scratch {
+[[nodiscard]] glm::vec<3, T> receiver_normal(const glm::vec<3, T>& n, const glm::vec<3, T>& p,
+                                             const glm::vec<3, T>& light_center) noexcept {
+    if (glm::dot(n, n) != T(0)) return n;
+    const glm::vec<3, T> to = light_center - p;
+    const T len = glm::length(to);
+    return len > T(0) && std::isfinite(len) ? to * (T(1) / len) : n;
+}
+
+/// Reusable per-thread buffers for the samples of the pixels of one batch (one pixel at a time unless the
+/// tracer has a batched form of the query, tracer.hpp).
+template <class T>
+struct pixel_batch {
+    struct pending {
+        occlusion_stats<T>* stats;
+        T d1;
+        std::size_t end;        // one past the pixel's last segment
+        std::uint32_t skipped;  // samples drawn and counted but not traced (no weight)
+    };
     std::vector<glm::vec<2, T>> uv;
     std::vector<shadow_segment<T>> segments;
+    std::vector<T> weights;
     std::vector<occluder_span<T>> hits;
     std::vector<visibility_hit> visible;  // visibility-only passes
-    std::vector<T> weights;
+    std::vector<pending> pixels;
+    trace_scratch<T> trace;
+    std::size_t size = 0;                 // segments pending
+
+    void reserve(std::size_t n) {
+        if (segments.size() >= n) return;  // grows a few times per thread, then reused
+        segments.resize(n), weights.resize(n), hits.resize(n), visible.resize(n);
+    }
 };
 
-/// Draws `count` samples for pixel (x, y) and adds them to `stats` (with distances, or visibility only for
-/// shadow_query::visibility). Returns the number of rays traced.
-template <shadow_query Query, class T, class Tracer>
-std::uint64_t gather_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const area_light<T>& light,
-                           const light_sample_frame<T>& frame, const Tracer& tracer, const sampling_settings& s,
-                           const sample_key& key, std::uint32_t count, occlusion_stats<T>& stats, pixel_scratch<T>& scratch) {
-    scratch.uv.resize(count);
-    generate_samples<T>(s.pattern, key, scratch.uv);
-    if (scratch.segments.size() < count) {  // grows once per thread, then reused
-        scratch.segments.resize(count);
-        scratch.weights.resize(count);
-        scratch.hits.resize(count);
-        if constexpr (Query == shadow_query::visibility) scratch.visible.resize(count);
-    }
+/// Draws `count` samples for a pixel and appends its segments to `batch` (traced by flush_batch).
+template <class T>
+void prepare_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const area_light<T>& light,
+                   const light_sample_frame<T>& frame, const sampling_settings& s, const sample_key& key,
+                   std::uint32_t count, occlusion_stats<T>& stats, pixel_batch<T>& batch) {
+    batch.uv.resize(count);
+    generate_samples<T>(s.pattern, key, batch.uv);
+    batch.reserve(batch.size + count);
     // Offset the origin to the light's side of the surface (Wächter–Binder: no epsilon to tune).
     const glm::vec<3, T> origin = shadow_ray_origin(p, n, frame.center, s.origin_offset);
     // d1 from the same point the segments start at, so d2 = d1·(L − t)/L is exact (t, L are from `origin`).
     const T d1 = std::abs(glm::dot(origin - light.corner, frame.normal));
-    std::size_t traced = 0;
+    std::size_t traced = batch.size;
     for (std::uint32_t i = 0; i < count; ++i) {
-        const glm::vec<3, T> y = light.point(scratch.uv[i].x, scratch.uv[i].y);
+        const glm::vec<3, T> y = light.point(batch.uv[i].x, batch.uv[i].y);
         const T wgt = frame.weight(n, y - p, y);
         const glm::vec<3, T> to = y - origin;
         const T len = glm::length(to);
         if (!(wgt > T(0)) || !std::isfinite(wgt) || !(len > T(0)) || !std::isfinite(len)) continue;
-        scratch.segments[traced] = {origin, to * (T(1) / len), len};  // one division, not three
-        scratch.weights[traced] = wgt;
+        batch.segments[traced] = {origin, to * (T(1) / len), len};  // one division, not three
+        batch.weights[traced] = wgt;
         ++traced;
     }
-    const std::uint32_t skipped = count - static_cast<std::uint32_t>(traced);  // drawn, counted, not traced
-    std::fill_n(scratch.hits.begin(), traced, occluder_span<T>{});
-    const std::span<const shadow_segment<T>> segments(scratch.segments.data(), traced);
-    const std::span<occluder_span<T>> hits(scratch.hits.data(), traced);
-    // Statistics do not depend on sample order, so traced samples are added first, skipped ones after.
-    if constexpr (Query == shadow_query::visibility) {
-        if (traced != 0) trace_visibility<T>(tracer, segments, hits, std::span<visibility_hit>(scratch.visible.data(), traced));
-        for (std::size_t i = 0; i < traced; ++i) {
-            if (scratch.visible[i] == visibility_hit::failed) ++stats.samples;  // dropped, as add_sample drops NaN hits
-            else stats.add_visibility_sample(scratch.weights[i], scratch.visible[i] == visibility_hit::blocked);
-        }
-    } else {
-        if (traced != 0) trace_all<T>(tracer, segments, hits);
-        for (std::size_t i = 0; i < traced; ++i)
-            stats.add_sample(scratch.weights[i], d1, scratch.segments[i].length, scratch.hits[i]);
+    const std::uint32_t skipped = count - static_cast<std::uint32_t>(traced - batch.size);
+    batch.pixels.push_back({&stats, d1, traced, skipped});
+    batch.size = traced;
+}
+
+/// Traces the batch's segments in one query (the tracer's batched form, or one call per segment) and adds
+/// each pixel's samples to its statistics, in the pixel's sample order: the same numbers whatever the
+/// batch holds. Returns the number of rays traced.
+template <shadow_query Query, class T, class Tracer>
+std::uint64_t flush_batch(const Tracer& tracer, pixel_batch<T>& batch) {
+    const std::size_t n = batch.size;
+    std::fill_n(batch.hits.begin(), n, occluder_span<T>{});
+    const std::span<const shadow_segment<T>> segments(batch.segments.data(), n);
+    const std::span<occluder_span<T>> hits(batch.hits.data(), n);
+    if (n != 0) {
+        if constexpr (Query == shadow_query::visibility)
+            trace_visibility<T>(tracer, segments, hits, std::span<visibility_hit>(batch.visible.data(), n), &batch.trace);
+        else
+            trace_all<T>(tracer, segments, hits, &batch.trace);
     }
-    stats.samples += skipped;
-    return traced;
+    std::size_t i = 0;
+    for (const auto& px : batch.pixels) {
+        occlusion_stats<T>& stats = *px.stats;
+        // Statistics do not depend on sample order, so traced samples are added first, skipped ones after.
+        for (; i < px.end; ++i) {
+            if constexpr (Query == shadow_query::visibility) {
+                if (batch.visible[i] == visibility_hit::failed) ++stats.samples;  // dropped, as add_sample drops NaN hits
+                else stats.add_visibility_sample(batch.weights[i], batch.visible[i] == visibility_hit::blocked);
+            } else {
+                stats.add_sample(batch.weights[i], px.d1, batch.segments[i].length, batch.hits[i]);
+            }
+        }
+        stats.samples += px.skipped;
+    }
+    batch.pixels.clear();
+    batch.size = 0;
+    return n;
 }
 
 }  // namespace detail
@@ -144,8 +213,11 @@ std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_
         throw_invalid(fn, "`samples_per_pixel` exceeds settings.max_samples");
     std::atomic<std::uint64_t> rays{0};
     const light_sample_frame<T> frame(light, s.weighting);
+    // A tracer with a batched form of this query gets whole pixels' segments, several pixels (of a row or
+    // of the task's consecutive rows) per call, at least batch_rays of them when the task has that many.
+    const std::size_t batch_target = uses_batches<Tracer, T>(Query == shadow_query::visibility) ? s.batch_rays : 0;
     exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
-        pixel_scratch<T> scratch;
+        pixel_batch<T> batch;
         std::uint64_t local = 0;
         for (std::size_t y = y0; y < y1; ++y) {
             for (std::size_t x = 0; x < w; ++x) {
@@ -154,11 +226,13 @@ std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_
                 const glm::vec<3, T> p = gb.positions(x, y);
                 const glm::vec<3, T> n = gb.normals(x, y);
                 if (!std::isfinite(p.x + p.y + p.z) || !std::isfinite(n.x + n.y + n.z)) continue;
-                const sample_key key{static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y), pass, s.light_index,
-                                     s.frame_seed};
-                local += gather_pixel<Query>(p, n, light, frame, tracer, s, key, std::min(count, s.max_samples), stats(x, y), scratch);
+                const sample_key key = pixel_key(gb.region, x, y, pass, s.light_index, s.frame_seed);
+                prepare_pixel(p, receiver_normal(n, p, frame.center), light, frame, s, key, std::min(count, s.max_samples),
+                              stats(x, y), batch);
+                if (batch.size >= batch_target) local += flush_batch<Query>(tracer, batch);
             }
         }
+        if (!batch.pixels.empty()) local += flush_batch<Query>(tracer, batch);
         rays += local;
     });
     return rays.load();
@@ -171,13 +245,16 @@ std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_
 /// non-empty it gives each pixel's count instead (0 = skip the pixel). Rows run on `exec`; the tracer is
 /// called concurrently (see tracer.hpp). Returns the number of shadow rays traced.
 template <class T, class Ids, class Tracer, class Exec = sequential_executor>
-    requires occlusion_tracer<Tracer, T>
 std::uint64_t gather_occlusion(const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
                                const sampling_settings& s, std::uint32_t pass, std::uint32_t samples_per_pixel,
                                image_view<occlusion_stats<T>> stats, const_image_view<std::uint32_t> sample_counts = {},
                                Exec&& exec = {}) {
-    return detail::gather_rows<shadow_query::distances>("gather_occlusion", gb, light, tracer, s, pass, samples_per_pixel,
-                                                        stats, sample_counts, exec);
+    static_assert(check_tracer<Tracer, T>());  // a message naming the member and the reason (tracer.hpp)
+    if constexpr (occlusion_tracer<Tracer, T>)
+        return detail::gather_rows<shadow_query::distances>("gather_occlusion", gb, light, tracer, s, pass, samples_per_pixel,
+                                                             stats, sample_counts, exec);
+    else
+        return 0;
 }
 
 /// As gather_occlusion, but each sample asks only "occluded or not" (the tracer's `occluded` when it has
@@ -185,13 +262,16 @@ std::uint64_t gather_occlusion(const gbuffer<T, Ids>& gb, const area_light<T>& l
 /// occlusion_stats::add_visibility_sample: visibility and sample counts change, d1/d2min/d2max do not.
 /// Same samples as gather_occlusion for the same key and pass, so the two agree on visibility.
 template <class T, class Ids, class Tracer, class Exec = sequential_executor>
-    requires occlusion_tracer<Tracer, T>
 std::uint64_t gather_visibility(const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
                                 const sampling_settings& s, std::uint32_t pass, std::uint32_t samples_per_pixel,
                                 image_view<occlusion_stats<T>> stats, const_image_view<std::uint32_t> sample_counts = {},
                                 Exec&& exec = {}) {
-    return detail::gather_rows<shadow_query::visibility>("gather_visibility", gb, light, tracer, s, pass, samples_per_pixel,
-                                                         stats, sample_counts, exec);
+    static_assert(check_tracer<Tracer, T>());  // a message naming the member and the reason (tracer.hpp)
+    if constexpr (occlusion_tracer<Tracer, T>)
+        return detail::gather_rows<shadow_query::visibility>("gather_visibility", gb, light, tracer, s, pass, samples_per_pixel,
+                                                             stats, sample_counts, exec);
+    else
+        return 0;
 }
 
 }  // namespace v0

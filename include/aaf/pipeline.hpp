@@ -7,10 +7,12 @@
 // filter_width / sample_count (formulas.hpp).
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <string>
 #include <type_traits>
 
 #include "area_light.hpp"
@@ -21,6 +23,7 @@
 #include "guides.hpp"
 #include "image.hpp"
 #include "occlusion_stats.hpp"
+#include "region.hpp"
 #include "settings.hpp"
 #include "tracer.hpp"
 
@@ -61,13 +64,47 @@ struct frame_workspace {
     }
 };
 
-/// What a frame cost.
+/// What a frame cost, and what it found in its inputs: counts that make a misconfigured frame visible
+/// (a frame that is all black for a reason aaf can see is reported by `diagnose()`).
 struct frame_report {
     std::uint64_t initial_rays = 0;   ///< shadow rays of the first pass
     std::uint64_t adaptive_rays = 0;  ///< shadow rays of the adaptive pass
     double initial_ms = 0, adaptive_ms = 0, formulas_ms = 0, filter_ms = 0, total_ms = 0;
     bool cancelled = false;           ///< the progress callback asked to stop; outputs were not written
+    std::uint64_t pixels = 0;                  ///< pixels of the buffers (the counts below are among them)
+    std::uint64_t pixels_without_surface = 0;  ///< non-finite position or normal: visibility 1
+    std::uint64_t pixels_behind_light = 0;     ///< surface on the back side of a one-sided light: visibility 0
+    std::uint64_t pixels_below_horizon = 0;    ///< in front of the light but every sample below the horizon: 0
+    std::uint64_t pixels_zero_normal = 0;      ///< surface with a zero normal: taken to face the light's centre
+    std::uint64_t pixels_bad_pixel_size = 0;   ///< surface whose pixel size is not a positive finite length
     [[nodiscard]] std::uint64_t rays() const noexcept { return initial_rays + adaptive_rays; }
+    [[nodiscard]] std::uint64_t surface_pixels() const noexcept { return pixels - pixels_without_surface; }
+
+    /// One sentence per suspicious count, naming the likely cause; empty when nothing looks wrong.
+    [[nodiscard]] std::string diagnose() const {
+        std::string out;
+        const auto line = [&](std::uint64_t n, const char* what) {
+            if (n == 0) return;
+            out += std::to_string(n) + " of " + std::to_string(surface_pixels()) + " surface pixels " + what + "\n";
+        };
+        const std::uint64_t surface = surface_pixels();
+        if (pixels != 0 && surface == 0)
+            out += "no pixel has a surface: every position or normal is non-finite (gbuffer.positions, gbuffer.normals)\n";
+        if (surface != 0 && pixels_behind_light == surface)
+            out += "every surface pixel is behind the one-sided light: it emits towards cross(edge_u, edge_v); swap "
+                   "light.edge_u and light.edge_v, or set light.two_sided\n";
+        else
+            line(pixels_behind_light, "are behind the one-sided light (visibility 0)");
+        if (surface != 0 && pixels_below_horizon == surface - pixels_behind_light && pixels_below_horizon != 0)
+            out += "every surface pixel in front of the light has it below its horizon: do gbuffer.normals face away "
+                   "from the camera? (e.g. Embree's geometric normal follows the winding; face it forward)\n";
+        else
+            line(pixels_below_horizon, "have the light below their horizon (visibility 0)");
+        line(pixels_zero_normal, "have a zero normal (taken to face the light's centre)");
+        line(pixels_bad_pixel_size,
+             "have a gbuffer.pixel_size that is not a positive finite world length (max_samples, not filtered)");
+        return out;
+    }
 };
 
 /// The default progress callback: never cancels.
@@ -84,16 +121,26 @@ inline double ms_since(std::chrono::steady_clock::time_point t0) {
 /// Renders one frame's shadow from `light` over the G-buffer `gb` with `tracer`.
 ///
 /// * Pixels without a surface (non-finite position or normal) get visibility 1; pixels whose whole light
-///   is below their horizon or behind a one-sided light get 0. No such pixel feeds its neighbours.
+///   is below their horizon or behind a one-sided light get 0. No such pixel feeds its neighbours. The
+///   report counts each kind, and report.diagnose() names the likely mistake when a whole frame is dark
+///   (light edges swapped, normals facing away from the camera).
+/// * A zero normal is an orientation-less receiver (hair, particles): it faces the light's centre.
+/// * A surface pixel whose pixel size is not a positive finite world length (0, negative, NaN, ±∞) cannot
+///   be sized by the formulas: it gets max_samples and is not filtered (its own Monte Carlo estimate), and
+///   is counted (report.pixels_bad_pixel_size). A size in pixels instead of world units is not detectable:
+///   formulas.hpp's pinhole_pixel_size gives world units.
 /// * `progress(fraction)` is called between stages; returning false cancels the frame before any output
 ///   is written (report.cancelled).
 /// * Deterministic: the same inputs and `settings.sampling.frame_seed` give the same image on any executor.
+/// * Tiles: with `gb.region` placing the buffers in the frame, and buffers that cover a tile plus
+///   region_halo(settings) pixels on every side that is not a frame edge (plan_region), the tile's pixels
+///   are bit-identical to the same pixels of a full-frame render. The halo's own outputs are not.
 /// Throws aaf::invalid_argument, before writing anything, for mismatched buffers or invalid settings.
 template <class T, class Ids, class Tracer, class Exec = sequential_executor, class Progress = no_progress>
-    requires occlusion_tracer<Tracer, T>
 frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
                           const frame_outputs<T>& out, frame_workspace<T>& ws, const frame_settings<T>& settings = {},
                           Exec&& exec = {}, Progress&& progress = {}) {
+    static_assert(check_tracer<Tracer, T>());  // a message naming the member and the reason (tracer.hpp)
     constexpr const char* fn = "render_frame";
     using clock = std::chrono::steady_clock;
     detail::require_gbuffer(fn, gb);
@@ -136,10 +183,27 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
     // 3. Adaptive pass: n from the formulas, capped at max_samples in total.
     if (ss.adaptive && ss.max_samples > ss.initial_samples) {
         t0 = clock::now();
+        // In a tile's buffers (gbuffer.region with the frame's size), pixels nearer than the spreading's reach
+        // to a halo edge feed only the spreading of their neighbours, which reads the first pass alone: no
+        // pixel of the tile reads their visibility (the filter reaches max_radius, and stops there), so they
+        // get no adaptive samples. Their outputs are not the frame's anyway.
+        const frame_region& r = gb.region;
+        const std::size_t halo = region_halo_extent(settings).spread;
+        const bool tile = r.knows_frame();
+        const std::size_t left = tile && r.origin_x > 0 ? halo : 0, top = tile && r.origin_y > 0 ? halo : 0;
+        const std::size_t right = tile && r.origin_x + w < r.frame_width ? halo : 0;
+        const std::size_t bottom = tile && r.origin_y + h < r.frame_height ? halo : 0;
         exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
             for (std::size_t y = y0; y < y1; ++y)
                 for (std::size_t x = 0; x < w; ++x) {
-                    const T n = sample_count(ws.slopes(x, y), sigma, gb.pixel_size(x, y), fs);
+                    if (x < left || y < top || x + right >= w || y + bottom >= h) {
+                        ws.adaptive_samples(x, y) = 0;
+                        continue;
+                    }
+                    const T d = gb.pixel_size(x, y);
+                    // A pixel the formulas cannot size (d not a positive finite length) gets the most samples.
+                    const T n = d > T(0) && d <= std::numeric_limits<T>::max() ? sample_count(ws.slopes(x, y), sigma, d, fs)
+                                                                              : std::numeric_limits<T>::infinity();
                     const std::uint32_t target = target_samples(n, ss.initial_samples, ss.max_samples);
                     ws.adaptive_samples(x, y) = target - ss.initial_samples;
                 }
@@ -167,7 +231,9 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
     exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
         for (std::size_t y = y0; y < y1; ++y)
             for (std::size_t x = 0; x < w; ++x) {
-                ws.filter_width(x, y) = filter_width(ws.slopes(x, y), sigma, gb.pixel_size(x, y), fs);
+                const T d = gb.pixel_size(x, y);  // not a positive finite length: not filtered (β = 0)
+                ws.filter_width(x, y) =
+                    d > T(0) && d <= std::numeric_limits<T>::max() ? filter_width(ws.slopes(x, y), sigma, d, fs) : T(0);
                 ws.raw_visibility(x, y) = ws.stats(x, y).visibility();
             }
     });
@@ -187,26 +253,46 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
     report.filter_ms = detail::ms_since(t0);
     if (!progress(0.95)) return report.cancelled = true, report;
 
-    // 6. Outputs.
+    // 6. Outputs, and the counts of the report.
+    const glm::vec<3, T> light_center = light.center();
+    std::atomic<std::uint64_t> no_surface{0}, behind{0}, below{0}, zero_normal{0}, bad_size{0};
     exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        std::uint64_t c_no_surface = 0, c_behind = 0, c_below = 0, c_zero = 0, c_bad = 0;
         for (std::size_t y = y0; y < y1; ++y)
             for (std::size_t x = 0; x < w; ++x) {
                 const glm::vec<3, T> p = gb.positions(x, y);
                 const glm::vec<3, T> n = gb.normals(x, y);
                 const bool surface = std::isfinite(p.x + p.y + p.z) && std::isfinite(n.x + n.y + n.z);
                 T v = ws.filtered(x, y);
-                if (!surface) v = T(1);
-                else if (!ws.stats(x, y).has_light() || !std::isfinite(v)) v = T(0);
+                if (!surface) {
+                    v = T(1);
+                    ++c_no_surface;
+                } else {
+                    const bool lit = ws.stats(x, y).has_light();
+                    if (!lit || !std::isfinite(v)) v = T(0);
+                    if (!lit) ++(light.emits_towards(p) ? c_below : c_behind);
+                    c_zero += glm::dot(n, n) == T(0);
+                    const T d = gb.pixel_size(x, y);
+                    c_bad += !(d > T(0) && d <= std::numeric_limits<T>::max());
+                }
                 v = std::clamp(v, T(0), T(1));
                 out.visibility(x, y) = v;
                 if (!out.shaded.empty()) {
                     T e = T(0);
                     if (!out.unshadowed.empty()) e = out.unshadowed(x, y);
-                    else if (surface) e = unshadowed_irradiance(light, p, n, settings.radiance);
+                    else if (surface)
+                        e = unshadowed_irradiance(light, p, detail::receiver_normal(n, p, light_center), settings.radiance);
                     out.shaded(x, y) = v * e;
                 }
             }
+        no_surface += c_no_surface, behind += c_behind, below += c_below, zero_normal += c_zero, bad_size += c_bad;
     });
+    report.pixels = static_cast<std::uint64_t>(w) * h;
+    report.pixels_without_surface = no_surface.load();
+    report.pixels_behind_light = behind.load();
+    report.pixels_below_horizon = below.load();
+    report.pixels_zero_normal = zero_normal.load();
+    report.pixels_bad_pixel_size = bad_size.load();
     report.total_ms = detail::ms_since(t_frame);
     progress(1.0);
     return report;

@@ -59,12 +59,19 @@ struct sampling_settings {
     /// (Wächter–Binder; right at every scene scale, nothing to tune); >= 0 moves it by this fixed distance
     /// in world units instead (0 = not at all). The fixed form exists to compare against hand-set epsilons.
     double origin_offset = -1;
+    /// Tracers with a batched query (tracer.hpp) get whole pixels' segments until a batch holds at least
+    /// this many (fewer at the end of an executor task); [1, 65536]. 64 fills four 16-wide packets. The
+    /// image does not depend on it.
+    std::uint32_t batch_rays = 64;
 };
 
 /// Where the filter measures the distance between two pixels (FORMULAS.md §1.11).
 enum class offset_space {
     image,        ///< pixel offsets, β converted to pixels with the centre's projected pixel size (cheap)
     light_plane,  ///< world offsets projected onto the light plane, as the theory and the authors' code
+    /// World offsets projected onto the *centre pixel's* tangent plane (its normal guide), as the authors'
+    /// indirect-light / AO code (§1.11 [AUTH-GI]); needs the positions and normals guides.
+    tangent_plane,
 };
 
 /// The separable Gaussian filter and the slope-spreading pass.
@@ -146,6 +153,8 @@ inline void validate(const sampling_settings& s, const char* function = "validat
                 std::to_string(static_cast<int>(s.adaptive_query)) + ")");
     require(std::isfinite(s.origin_offset), function, "settings.sampling.origin_offset",
             "must be finite (got " + std::to_string(s.origin_offset) + ")");
+    require(s.batch_rays >= 1 && s.batch_rays <= 65536, function, "settings.sampling.batch_rays",
+            "must be in [1, 65536] (got " + std::to_string(s.batch_rays) + ")");
 }
 
 template <class T>

@@ -1,0 +1,264 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+// The axis-aligned AO filter (Mehta et al. 2013 and the authors' indirect-light code; FORMULAS.md §4.2, §8.3):
+// filter width and adaptive sample count from the nearest hit distance z_min (and z_max), and the core's
+// guided separable Gaussian (filter.hpp) run over the AO and the bent normals' components.
+//
+// Limits (tested in tests/test_occlusion_filter.cpp):
+// * no hit (z_min = +∞)       → β = 0 (the pixel is left as sampled: with no occluder in range its cosine-
+//                               sampled estimate is exactly 1) and n = 0 (no adaptive samples wanted);
+//                               render_ambient_occlusion first spreads its neighbours' z to it when it can;
+// * contact, z_min → 0        → β → 0 (nothing to filter over) and n → +∞, clamped to the cap;
+// * NaN z_min or pixel size   → as "no hit";
+// * μ → ∞                     → β → 0: the filtered result is the Monte Carlo one (consistency).
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <type_traits>
+
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
+#include "../executor.hpp"
+#include "../filter.hpp"
+#include "../formulas.hpp"
+#include "../gather.hpp"
+#include "../guides.hpp"
+#include "../image.hpp"
+#include "../image_view.hpp"
+#include "ao_gather.hpp"
+#include "ao_settings.hpp"
+#include "ao_stats.hpp"
+
+namespace aaf {
+inline namespace v0 {
+
+/// The AO filter's bandwidth Ω* = Ω_h / z_min (world units⁻¹), with z_min clamped to ≥ settings.min_distance.
+/// +∞ at contact (z_min = 0), 0 for no hit (z_min = +∞) and for NaN. The authors' per-neighbour (1 + 50 θ)
+/// factor is replaced by the hard normal threshold (DEVIATIONS.md, occlusion row 2).
+template <class T>
+[[nodiscard]] constexpr T ao_filter_bandwidth(T z_min, const ao_filter_settings<T>& s) noexcept {
+    if (std::isnan(z_min)) return T(0);
+    return detail::safe_div(s.omega_h, std::max(z_min, s.min_distance));
+}
+
+/// The AO filter width β in world units: the standard deviation of the authors' kernel exp(−2μ²Ω*²r²),
+/// β = 1/(2μΩ*) = z_min/(2μΩ_h). 0 (do not filter) for no hit, contact and NaN.
+template <class T>
+[[nodiscard]] constexpr T ao_filter_width(T z_min, const ao_filter_settings<T>& s) noexcept {
+    const T omega = ao_filter_bandwidth(z_min, s);
+    if (!(omega > T(0)) || !(omega < std::numeric_limits<T>::infinity())) return T(0);
+    return T(1) / (T(2) * s.mu * omega);
+}
+
+/// Samples per pixel n = c_imp (μΩ_h d/z_min + α)² (1 + μ z_max/z_min)² Ω_h² (FORMULAS.md §4.2), real-valued,
+/// unclamped: 0 for no hit or NaN input (no adaptive samples wanted), +∞ at contact (clamp it with
+/// aaf::target_samples). `pixel_size` d in world units.
+template <class T>
+[[nodiscard]] constexpr T ao_sample_count(T z_min, T z_max, T pixel_size, const ao_filter_settings<T>& s) noexcept {
+    if (std::isnan(z_min) || std::isnan(z_max) || std::isnan(pixel_size) || !(z_min < std::numeric_limits<T>::infinity()))
+        return T(0);
+    const T zm = std::max(z_min, s.min_distance);
+    const T pixel_term = detail::safe_div(s.mu * s.omega_h * std::max(pixel_size, T(0)), zm) + s.alpha;
+    const T wedge = T(1) + detail::safe_div(s.mu * std::max(z_max, zm), zm);
+    const T n = s.importance_scale * pixel_term * pixel_term * wedge * wedge * s.omega_h * s.omega_h;
+    return std::isnan(n) ? T(0) : n;
+}
+
+/// Everything one filtered AO frame needs besides buffers and tracer.
+template <class T = float>
+struct ao_frame_settings {
+    ao_sampling_settings<T> sampling{};  ///< hemisphere samples (initial pass 0, adaptive pass 1)
+    ao_filter_settings<T> filter{};      ///< the AO filter's constants
+    bool adaptive = true;                ///< add samples up to n (ao_sample_count), capped at sampling.max_samples
+    bool filtered = true;                ///< run the filter (false: Monte Carlo with the adaptive counts)
+};
+
+/// What filter_ambient_occlusion / render_ambient_occlusion write. `visibility` is required; the others are
+/// written when non-empty. All must have the G-buffer's size.
+template <class T = float>
+struct ao_outputs {
+    image_view<T> visibility;                ///< cosine-weighted ambient visibility 1 − occlusion; NaN = no estimate
+    /// Unit bent normals: the normal where no direction is unoccluded, NaN where there is no estimate.
+    image_view<glm::vec<3, T>> bent_normal;
+    image_view<T> filter_width;              ///< β per pixel, world units (0 = not filtered), for heat maps
+    image_view<std::uint32_t> samples;       ///< samples per pixel after the adaptive pass, for heat maps
+};
+
+namespace detail {
+
+template <class T>
+void require_ao_outputs(const char* fn, const ao_outputs<T>& o, std::size_t w, std::size_t h) {
+    require_size(fn, "outputs.visibility", o.visibility, w, h);
+    require_size_or_empty(fn, "outputs.bent_normal", o.bent_normal, w, h);
+    require_size_or_empty(fn, "outputs.filter_width", o.filter_width, w, h);
+    require_size_or_empty(fn, "outputs.samples", o.samples, w, h);
+}
+
+template <class T>
+[[nodiscard]] filter_settings<T> ao_core_filter_settings(const ao_filter_settings<T>& s) noexcept {
+    filter_settings<T> f;
+    f.space = s.space;
+    f.truncation = s.truncation;
+    f.max_radius = s.max_radius;
+    f.normal_threshold_degrees = s.normal_threshold_degrees;
+    f.spread_slopes = false;
+    return f;
+}
+
+}  // namespace detail
+
+/// Filters a frame of AO records into `out`: β from each pixel's z_min (ao_filter_width), then the core's
+/// guided separable Gaussian (aaf::filter_visibility) over the visibility and over each component of the
+/// bent normals, which are renormalised (a pixel whose filtered bent normal has zero length keeps its own).
+/// Guides: the G-buffer's normals (normalised here; neighbours beyond settings.normal_threshold_degrees are
+/// rejected), its IDs when it has them, and its positions for tangent-plane distances.
+/// Pixels without an estimate (no surface, every sample failed) stay NaN and never reach a neighbour.
+/// Allocates per call: 7 images of T (β, normals, bent components, scratch) and the filter's own memory.
+/// Throws aaf::invalid_argument (before writing) on mismatched buffers or invalid settings.
+template <class T, class Ids, class Exec = sequential_executor>
+void filter_ambient_occlusion(const gbuffer<T, Ids>& gb, const_image_view<ao_stats<T>> stats,
+                              const ao_filter_settings<T>& s, const ao_outputs<T>& out, Exec&& exec = {}) {
+    constexpr const char* fn = "filter_ambient_occlusion";
+    detail::require_gbuffer(fn, gb);
+    validate(s, fn);
+    const std::size_t w = gb.width(), h = gb.height();
+    detail::require_size(fn, "stats", stats, w, h);
+    detail::require_ao_outputs(fn, out, w, h);
+    image<T> beta(w, h), vis(w, h);
+    image<glm::vec<3, T>> normals(w, h);
+    std::array<image<T>, 3> bent;
+    const bool with_bent = !out.bent_normal.empty();
+    if (with_bent)
+        for (auto& b : bent) b.reset(w, h);
+    constexpr T nan = std::numeric_limits<T>::quiet_NaN();
+    for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x) {
+            const ao_stats<T>& r = stats(x, y);
+            const glm::vec<3, T> n = detail::ao_unit_or_zero(gb.normals(x, y));
+            normals(x, y) = n == glm::vec<3, T>(0) ? glm::vec<3, T>(nan) : n;  // NaN normals reject as guides
+            vis(x, y) = r.visibility();
+            beta(x, y) = std::isfinite(vis(x, y)) ? ao_filter_width(r.z_min, s) : T(0);
+            if (with_bent) {
+                const glm::vec<3, T> b = std::isfinite(vis(x, y)) ? r.bent_normal(n) : glm::vec<3, T>(nan);
+                for (int c = 0; c < 3; ++c) bent[c](x, y) = b[c];
+            }
+        }
+    const filter_settings<T> fs = detail::ao_core_filter_settings(s);
+    image<T> scratch(w, h);
+    const auto run = [&](const image<T>& src, image_view<T> dst) {
+        if constexpr (gbuffer<T, Ids>::has_ids)
+            filter_visibility<T>(src.view(), beta.view(), gb.pixel_size, dst, scratch.view(),
+                                 guides{normals.cview(), gb.ids, gb.positions}, fs, glm::vec<3, T>(0, 1, 0), exec);
+        else
+            filter_visibility<T>(src.view(), beta.view(), gb.pixel_size, dst, scratch.view(),
+                                 guides{normals.cview(), no_guide{}, gb.positions}, fs, glm::vec<3, T>(0, 1, 0), exec);
+    };
+    run(vis, out.visibility);
+    if (with_bent) {
+        std::array<image<T>, 3> filtered;
+        for (int c = 0; c < 3; ++c) {
+            filtered[c].reset(w, h);
+            run(bent[c], filtered[c].view());
+        }
+        for (std::size_t y = 0; y < h; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                const glm::vec<3, T> f{filtered[0](x, y), filtered[1](x, y), filtered[2](x, y)};
+                const T len = glm::length(f);
+                out.bent_normal(x, y) = len > T(0) && std::isfinite(len)
+                                            ? f / len
+                                            : glm::vec<3, T>{bent[0](x, y), bent[1](x, y), bent[2](x, y)};
+            }
+    }
+    if (!out.filter_width.empty())
+        for (std::size_t y = 0; y < h; ++y)
+            for (std::size_t x = 0; x < w; ++x) out.filter_width(x, y) = beta(x, y);
+}
+
+/// Gives every record without hits of its own the smallest z_min and largest z_max of the records with hits
+/// within `radius` pixels (a square window, same object ID when the G-buffer has IDs), by the core's
+/// aaf::spread_slopes on (s1, s2) = (z_max, z_min): its max/min and "keep your own" rules are exactly the
+/// ones needed. `hits` stays 0, so a spread record is still known to have seen nothing itself. Records that
+/// receive nothing keep z_min = +∞ (no hit: not filtered, no adaptive samples).
+template <class T, class Ids, class Exec = sequential_executor>
+void spread_hit_distances(const gbuffer<T, Ids>& gb, image_view<ao_stats<T>> stats, std::uint32_t radius, Exec&& exec = {}) {
+    constexpr const char* fn = "spread_hit_distances";
+    detail::require_gbuffer(fn, gb);
+    const std::size_t w = gb.width(), h = gb.height();
+    detail::require_size(fn, "stats", stats, w, h);
+    if (radius > 1024) detail::throw_invalid(fn, "`radius` must be <= 1024 (got " + std::to_string(radius) + ")");
+    if (radius == 0) return;
+    image<slope_pair<T>> z(w, h), scratch(w, h);
+    for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x)
+            if (stats(x, y).has_hit() && stats(x, y).z_min < std::numeric_limits<T>::infinity())
+                z(x, y) = {stats(x, y).z_max, stats(x, y).z_min};
+    if constexpr (gbuffer<T, Ids>::has_ids)
+        spread_slopes<T>(z.view(), scratch.view(), radius, guides<no_guide, Ids, no_guide>{{}, gb.ids, {}}, exec);
+    else
+        spread_slopes<T>(z.view(), scratch.view(), radius, guides<>{}, exec);
+    for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x) {
+            ao_stats<T>& r = stats(x, y);
+            if (r.has_hit() || !z(x, y).has_occluder()) continue;
+            r.z_min = z(x, y).s2;
+            r.z_max = z(x, y).s1;
+        }
+}
+
+/// One filtered AO frame: `settings.sampling.initial_samples` samples per pixel (pass 0, with distances),
+/// then hit distances spread to pixels without hits (spread_hit_distances, filter.spread_radius), then, when
+/// `adaptive`, each pixel with a (possibly spread) z_min gets up to n = ao_sample_count(…) samples in total
+/// (pass 1, visibility only, capped at sampling.max_samples), then the filter (when `filtered`). Writes
+/// `out`; returns the number of rays traced. `region` places the buffers in the full frame (tiles).
+template <class T, class Ids, class Tracer, class Exec = sequential_executor>
+std::uint64_t render_ambient_occlusion(const gbuffer<T, Ids>& gb, const Tracer& tracer, const ao_frame_settings<T>& s,
+                                       const ao_outputs<T>& out, const frame_region& region = {}, Exec&& exec = {}) {
+    constexpr const char* fn = "render_ambient_occlusion";
+    detail::require_gbuffer(fn, gb);
+    validate(s.sampling, fn);
+    validate(s.filter, fn);
+    const std::size_t w = gb.width(), h = gb.height();
+    detail::require_ao_outputs(fn, out, w, h);
+    image<ao_stats<T>> stats(w, h);
+    std::uint64_t rays =
+        gather_ambient_occlusion(gb, tracer, s.sampling, 0, s.sampling.initial_samples, stats.view(), {}, region, exec);
+    spread_hit_distances(gb, stats.view(), s.filter.spread_radius, exec);
+    image<std::uint32_t> extra(w, h, 0u);
+    if (s.adaptive) {
+        bool any = false;
+        for (std::size_t y = 0; y < h; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                const ao_stats<T>& r = stats(x, y);
+                if (r.samples == 0 || !(r.z_min < std::numeric_limits<T>::infinity())) continue;
+                const T n = ao_sample_count(r.z_min, r.z_max, gb.pixel_size(x, y), s.filter);
+                const std::uint32_t target = target_samples(n, s.sampling.initial_samples, s.sampling.max_samples);
+                extra(x, y) = target > r.samples ? target - r.samples : 0u;
+                any = any || extra(x, y) > 0;
+            }
+        if (any) rays += gather_ambient_occlusion(gb, tracer, s.sampling, 1, 0, stats.view(), extra.cview(), region, exec);
+    }
+    if (!out.samples.empty())
+        for (std::size_t y = 0; y < h; ++y)
+            for (std::size_t x = 0; x < w; ++x) out.samples(x, y) = stats(x, y).samples;
+    if (s.filtered) {
+        filter_ambient_occlusion(gb, stats.cview(), s.filter, out, exec);
+        return rays;
+    }
+    for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x) {
+            out.visibility(x, y) = stats(x, y).visibility();
+            if (!out.bent_normal.empty())
+                out.bent_normal(x, y) = std::isfinite(out.visibility(x, y))
+                                            ? stats(x, y).bent_normal(detail::ao_unit_or_zero(gb.normals(x, y)))
+                                            : glm::vec<3, T>(std::numeric_limits<T>::quiet_NaN());
+            if (!out.filter_width.empty()) out.filter_width(x, y) = T(0);
+        }
+    return rays;
+}
+
+}  // namespace v0
+}  // namespace aaf
