@@ -5,6 +5,7 @@
 
 #include "common/occlusion_methods.hpp"
 #include "common/shadow_maps_methods.hpp"
+#include "common/subsurface_methods.hpp"
 
 #include <algorithm>
 #include <cstdio>
@@ -20,6 +21,7 @@ std::vector<method_family> registry() {
     families.push_back(variant_methods());
     families.push_back(shadow_map_methods());
     families.push_back(occlusion_methods());
+    families.push_back(subsurface_methods());
     return families;
 }
 
