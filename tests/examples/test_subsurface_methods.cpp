@@ -21,6 +21,9 @@ struct small_scene {
     scene s = load_scene("boxes", {});
     mutable aaf::thread_pool pool{2};
     bvh tracer{s.vertices, s.triangles};
+    // render_inputs holds a reference to a scene_tracer: one that lives as long as the scene, not a
+    // temporary made from the bvh by conversion in inputs()'s return statement (which would dangle).
+    scene_tracer any_tracer{tracer};
     gbuffer_images g;
     aaf::image<float> reference;
 
@@ -34,7 +37,7 @@ struct small_scene {
         reference = aaf::image<float>(a.width(), a.height());
         for (std::size_t i = 0; i < a.size(); ++i) reference.data()[i] = 0.5f * (a.data()[i] + b.data()[i]);
     }
-    [[nodiscard]] render_inputs inputs() const { return {.s = s, .tracer = tracer, .g = g, .pool = pool, .seed = 3}; }
+    [[nodiscard]] render_inputs inputs() const { return {.s = s, .tracer = any_tracer, .g = g, .pool = pool, .seed = 3}; }
     /// RMS error over surface pixels of `name` at `samples` against the reference.
     [[nodiscard]] double error(const std::string& name, double samples) const {
         const aaf::image<float> img = find_method(name).render(inputs(), samples).image;
