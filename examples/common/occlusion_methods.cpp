@@ -113,6 +113,27 @@ method_output render_aaf_ao(const render_inputs& in, float mu) {
     return out;
 }
 
+/// Shadow-map AO: `directions` orthographic depth maps of `resolution`² texels over the sphere, fitted
+/// around the scene's vertices, with the AO reference's maximum distance as a per-receiver depth range.
+method_output render_sm_ao(const render_inputs& in, std::uint32_t directions, std::uint32_t resolution) {
+    const std::size_t w = in.g.positions.width(), h = in.g.positions.height();
+    aaf::shadow_map_ao_settings<float> s;
+    s.directions = std::max<std::uint32_t>(directions, 1);
+    s.resolution = resolution;
+    s.max_distance = ao_max_distance(in.s);
+    aaf::image<float> vis(w, h);
+    aaf::image<glm::vec3> bent(w, h);
+    method_output out;
+    const auto t0 = clock_type::now();
+    const aaf::shadow_map_ao_stats st = aaf::shadow_map_ao(view_of(in.g), in.tracer, in.s.vertices, s, vis.view(), bent.view(), in.pool);
+    out.total_ms = ms_since(t0);
+    out.rays = st.map_rays;  // texel rays of the maps; the lookups trace none
+    out.image = displayable_ao(vis, in.g);
+    out.memory_bytes = st.map_bytes;  // one map live at a time (accumulators: 5 floats per pixel besides)
+    add_shading_pictures(out, in, out.image, bent);
+    return out;
+}
+
 }  // namespace
 
 float ao_max_distance(const scene& s) {
@@ -161,6 +182,21 @@ method_family occlusion_methods() {
                   {"max_distance", "0.2 x scene diagonal"}};
     a.render = [](const render_inputs& in, double knob) { return render_aaf_ao(in, static_cast<float>(knob)); };
     f.methods.push_back(std::move(a));
+
+    method m;
+    m.name = "sm_ao";
+    m.family = "occlusion";
+    m.what = quantity::ambient_occlusion;
+    m.knob = "directions";
+    m.sweep = {4, 16, 64, 256};
+    m.default_knob = 32;
+    m.help = "shadow-map AO: N orthographic 256x256 depth maps over the sphere (Fibonacci), hard lookups with the "
+             "automatic bias, cosine-weighted; max distance as a per-receiver depth range";
+    m.settings = {{"resolution", 256}, {"format", "unorm24"}, {"bias", "automatic"}, {"max_distance", "0.2 x scene diagonal"}};
+    m.render = [](const render_inputs& in, double knob) {
+        return render_sm_ao(in, static_cast<std::uint32_t>(std::lround(knob)), 256);
+    };
+    f.methods.push_back(std::move(m));
 
     quantity_reference r;
     r.what = quantity::ambient_occlusion;

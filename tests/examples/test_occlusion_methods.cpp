@@ -24,7 +24,7 @@ TEST_CASE("occlusion methods render the boxes scene and aaf_ao beats Monte Carlo
     const gbuffer_images g = render_gbuffer(s, tracer, pool);
     const render_inputs in{s, tracer, g, pool, 3};
     const method_family f = occlusion_methods();
-    REQUIRE(f.methods.size() == 3);
+    REQUIRE(f.methods.size() == 4);
     REQUIRE(f.references.size() == 1);
     CHECK(f.references[0].what == quantity::ambient_occlusion);
     const aaf::image<float> ref = f.references[0].render(in, 1024, 77).image;
@@ -52,4 +52,17 @@ TEST_CASE("occlusion methods render the boxes scene and aaf_ao beats Monte Carlo
     }
     CAPTURE(mc_error, aaf_error);
     CHECK(aaf_error < mc_error);
+
+    // sm_ao: one 256² map live at a time, and more directions bring it nearer the reference.
+    const method* sm = nullptr;
+    for (const method& m : f.methods)
+        if (m.name == "sm_ao") sm = &m;
+    REQUIRE(sm != nullptr);
+    const method_output few = sm->render(in, 4.0), more = sm->render(in, 32.0);
+    CHECK(few.memory_bytes == 256u * 256u * sizeof(float));
+    CHECK(more.rays == 32u * 256u * 256u);
+    CHECK(more.pictures.size() == 5);
+    const double few_error = rmse(few.image, ref, mask), more_error = rmse(more.image, ref, mask);
+    CAPTURE(few_error, more_error);
+    CHECK(more_error < few_error);
 }
