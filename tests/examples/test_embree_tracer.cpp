@@ -137,8 +137,10 @@ TEST_CASE("embree_tracer's primary rays match bvh::nearest_hit", "[embree][scene
         if (hb.triangle != he.triangle) continue;  // a ray through a shared edge may name either triangle
         ++same_triangle;
         CHECK(hb.normal == he.normal);  // both from the same vertices, the same way
-        CHECK(std::abs(hb.barycentrics.x - he.barycentrics.x) <= 1e-4f);
-        CHECK(std::abs(hb.barycentrics.y - he.barycentrics.y) <= 1e-4f);
+        // Two different intersection algorithms: their barycentrics agree to the triangle's conditioning.
+        // Measured: up to 1e-4 at -march=native (FMA), 1.7e-4 in the generic x86-64 build (ASan preset).
+        CHECK(std::abs(hb.barycentrics.x - he.barycentrics.x) <= 5e-4f);
+        CHECK(std::abs(hb.barycentrics.y - he.barycentrics.y) <= 5e-4f);
     }
     CHECK(hits > n / 4);
     CHECK(same_triangle >= hits - hits / 100);
