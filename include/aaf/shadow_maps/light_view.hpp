@@ -173,7 +173,13 @@ struct light_frame {
             depth_per_t = T(1);
             return {world_point(u, v, view.near_plane, width, height), forward, view.far_plane - view.near_plane};
         }
-        const glm::vec<3, T> through = world_point(u, v, T(1), width, height) - view.eye;  // depth 1 along forward
+        // The direction through the texel at depth 1, built from the frame's axes alone. Not as
+        // world_point(u, v, 1) − eye: far from the origin (a scene at scale 1e5) the eye's coordinates are so
+        // large that adding a texel's lateral offset at depth 1 to them rounds it away, and neighbouring
+        // texels got the same ray (found by tests/examples/test_shadow_maps_bias_scenes.cpp).
+        const T x = (T(2) * u / static_cast<T>(width) - T(1)) * view.half_width;
+        const T y = (T(2) * v / static_cast<T>(height) - T(1)) * view.half_height;
+        const glm::vec<3, T> through = x * right + y * up + forward;  // depth 1 along forward
         const T len1 = glm::length(through);
         depth_per_t = T(1) / len1;  // cosine of the ray's angle to forward
         const glm::vec<3, T> dir = through * depth_per_t;
