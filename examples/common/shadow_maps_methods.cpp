@@ -86,6 +86,13 @@ method_family shadow_map_methods() {
     f.methods.push_back(hard("sm_hard_no_bias", aaf::bias_mode::none, 0, "shadow map, hard test, no depth bias: acne"));
     f.methods.push_back(hard("sm_hard_constant_bias", aaf::bias_mode::constant, 1e-3f,
                              "shadow map, hard test, the seed's constant bias of 1e-3 world units"));
+    // The remaining bias modes with their default settings, so that every mode can be rendered on every scene.
+    f.methods.push_back(hard("sm_hard_slope_scaled", aaf::bias_mode::slope_scaled, 0,
+                             "shadow map, hard test, slope-scaled bias (glPolygonOffset factor 1, units 1)"));
+    f.methods.push_back(hard("sm_hard_normal_offset", aaf::bias_mode::normal_offset, 0,
+                             "shadow map, hard test, normal-offset bias (receiver moved one texel footprint along its normal)"));
+    f.methods.push_back(hard("sm_hard_receiver_plane", aaf::bias_mode::receiver_plane, 0,
+                             "shadow map, hard test, receiver-plane depth bias"));
     {
         method m;
         m.name = "sm_pcf";

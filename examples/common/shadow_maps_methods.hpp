@@ -7,6 +7,8 @@
 //   sm_hard             knob map_size: one perspective map from the light's centre, hard test, automatic bias
 //   sm_hard_no_bias     the same with no bias (acne), and with the seed's constant ε_b (tuned to a 1-unit
 //   sm_hard_constant_bias  scene: 1e-3 world units): the bias figure's three panels with sm_hard
+//   sm_hard_slope_scaled, sm_hard_normal_offset, sm_hard_receiver_plane
+//                       the same with each remaining bias mode (default settings), knob map_size
 //   sm_pcf              knob taps: the same map (1024²), PCF over a rotated Poisson disc of 2 texels' radius
 //   sm_pcss             knob taps: PCSS (light width √area, 16 blocker taps) with that many PCF taps
 //   sm_accumulation     knob grid M: M×M maps (512², one at a time) from a regular grid on the light

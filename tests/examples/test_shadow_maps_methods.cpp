@@ -51,6 +51,10 @@ TEST_CASE("shadow-map methods render displayable images that approach Monte Carl
     INFO("hard " << err["sm_hard"] << " no bias " << err["sm_hard_no_bias"] << " pcf " << err["sm_pcf"] << " pcss " << err["sm_pcss"]
                  << " accumulation M=4 " << err["sm_accumulation"] << " M=2 " << e2);
     CHECK(err["sm_hard_no_bias"] > err["sm_hard"]);  // acne
+    for (const char* biased : {"sm_hard_slope_scaled", "sm_hard_normal_offset", "sm_hard_receiver_plane"}) {
+        INFO(biased << " " << err[biased]);
+        CHECK(err[biased] < err["sm_hard_no_bias"]);  // every bias mode removes the acne of none on these planar faces
+    }
     CHECK(err["sm_accumulation"] < err["sm_hard"]);
     CHECK(err["sm_accumulation"] < e2);
     CHECK(err["sm_pcss"] < err["sm_hard"]);
