@@ -21,6 +21,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <vector>
 
@@ -120,6 +121,26 @@ void run(aaf_fuzz::reader& in, const Projection& proj, const ss::material<float>
     }
     for (const vec3& o : out)
         for (int c = 0; c < 3; ++c) {
+            if (std::isnan(o[c])) {  // what the replay needs to see before the abort
+                std::fprintf(stderr, "material sa %g %g %g ssp %g %g %g eta %g; samples %u radius %g sampling %d profile %d boundary %d "
+                             "tangent %d exact %d fixes %d%d%d vector %d eps %g %g %g; built %d faces %d size %zux%zu\n",
+                             double(mat.sigma_a.x), double(mat.sigma_a.y), double(mat.sigma_a.z), double(mat.sigma_s_prime.x),
+                             double(mat.sigma_s_prime.y), double(mat.sigma_s_prime.z), double(mat.eta), s.samples, double(s.radius),
+                             int(s.sampling), int(s.profile), int(s.boundary), s.tangent_plane, s.exact_centre, s.fix_shrink, s.fix_intrude,
+                             s.fix_bias, s.vector_profile, double(s.shrink_epsilon), double(s.intrude_epsilon), double(s.bias_epsilon), build,
+                             Projection::faces(), proj.width, proj.height);
+                for (std::size_t i = 0; i < n; ++i)
+                    std::fprintf(stderr, "point %g %g %g normal %g %g %g out %g %g %g\n", double(pts[i].x), double(pts[i].y), double(pts[i].z),
+                                 double(nrm[i].x), double(nrm[i].y), double(nrm[i].z), double(out[i].x), double(out[i].y), double(out[i].z));
+                for (int f = 0; f < Projection::faces(); ++f)
+                    for (std::size_t i = 0; i < proj.width * proj.height; ++i) {
+                        const vec3 q = view.faces[std::size_t(f)].positions.empty() ? vec3(0) : view.faces[std::size_t(f)].positions(i % proj.width, i / proj.width);
+                        const vec3 nn = view.faces[std::size_t(f)].normals(i % proj.width, i / proj.width);
+                        const vec3 e = view.faces[std::size_t(f)].irradiance(i % proj.width, i / proj.width);
+                        std::fprintf(stderr, "texel %d/%zu p %g %g %g n %g %g %g E %g %g %g\n", f, i, double(q.x), double(q.y), double(q.z),
+                                     double(nn.x), double(nn.y), double(nn.z), double(e.x), double(e.y), double(e.z));
+                    }
+            }
             AAF_FUZZ_CHECK(!std::isnan(o[c]));
             if (nonnegative) AAF_FUZZ_CHECK(!(o[c] < 0));
         }

@@ -263,7 +263,7 @@ gather_stats gather_subsurface(const visible_points<typename light_map_view<Proj
                     ++l_samples;
                     const vec3 ps = (i == 0 ? xo : p) + T(rho * std::cos(phi)) * b1 + T(rho * std::sin(phi)) * b2;
                     const map_point<T> m = proj.project(ps);
-                    const map_texel<T> t = read_texel(map, m.face, std::ptrdiff_t(std::floor(m.texel.x)), std::ptrdiff_t(std::floor(m.texel.y)));
+                    const map_texel<T> t = read_texel(map, m.face, texel_index(m.texel.x, proj.width), texel_index(m.texel.y, proj.height));
                     if (!t.valid || !(t.irradiance.x + t.irradiance.y + t.irradiance.z > T(0))) {
                         ++l_outside;
                         continue;
@@ -285,7 +285,7 @@ gather_stats gather_subsurface(const visible_points<typename light_map_view<Proj
                     const T cos_i = std::max(std::abs(glm::dot(t.normal, ray_dir)), T(1e-6));
                     double jac = 1 / double(cos_i);
                     if constexpr (is_cube) {
-                        const double dps = glm::length(ps - proj.light), dxs = glm::length(xs - proj.light);
+                        const double dps = double(glm::length(ps - proj.light)), dxs = double(glm::length(xs - proj.light));
                         jac *= std::abs(double(glm::dot(ray_dir, -wl))) * (dxs / dps) * (dxs / dps);
                     }
                     // Distances from the point itself: the fixes move where the map is read, not the point whose
@@ -320,7 +320,9 @@ gather_stats gather_subsurface(const visible_points<typename light_map_view<Proj
                         const vec3 lateral = d - along * ray_dir;
                         r = std::sqrt(double(glm::dot(lateral, lateral)) + depth * depth);
                     }
-                    if (!std::isfinite(r)) continue;  // R_d and S_d vanish at infinite distance
+                    // A texel point so far away that its distance or its area overflows (a caller's stray value): R_d
+                    // and S_d decay faster than the area grows, so the limit is 0, not ∞·0 = NaN (fuzz finding).
+                    if (!std::isfinite(r) || !std::isfinite(jac)) continue;
                     if (batch) {
                         const double wgt = area * jac / std::numbers::pi;
                         batch_r[batched] = r;
