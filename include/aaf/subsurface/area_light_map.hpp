@@ -20,6 +20,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include <glm/geometric.hpp>
