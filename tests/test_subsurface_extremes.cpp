@@ -176,3 +176,107 @@ TEST_CASE("subsurface bad input: named errors before any output, or documented r
     ss::gather_subsurface(vp, sc.map.view(), ss::presets::spectralon<float>(), {}, o);
     CHECK((std::isfinite(out.x) && out.x > 0));
 }
+
+TEST_CASE("a point far outside the map gathers 0 without converting a huge texel coordinate (fuzz finding)", "[subsurface]") {
+    // fuzz_subsurface: a disc sample 1e20 texels away was converted to an integer index (undefined behaviour,
+    // caught by UBSan). texel_index now reports it as outside.
+    CHECK(ss::texel_index(6.9e20f, 4) == -1);
+    CHECK(ss::texel_index(-0.5f, 4) == -1);
+    CHECK(ss::texel_index(std::numeric_limits<float>::quiet_NaN(), 4) == -1);
+    CHECK(ss::texel_index(4.0f, 4) == -1);
+    CHECK(ss::texel_index(3.99f, 4) == 3);
+    const scaled_scene scene(1);
+    for (const float far : {1e20f, 3e38f}) {
+        const glm::vec3 p(far, 0, -far), n(0, 1, 0);
+        glm::vec3 out(-1);
+        for (const auto sampling : {ss::disc_sampling::profile, ss::disc_sampling::centre_first}) {
+            ss::gather_settings<float> s;
+            s.sampling = sampling;
+            s.samples = 16;
+            s.radius = far;  // a disc reaching far beyond the map as well
+            ss::gather_subsurface(ss::visible_points<float>{{&p, 1, 1}, {&n, 1, 1}}, scene.map.view(), ss::presets::marble<float>(), s,
+                                  aaf::image_view<glm::vec3>(&out, 1, 1));
+            for (int c = 0; c < 3; ++c) {
+                CHECK(std::isfinite(out[c]));
+                CHECK(out[c] >= 0);
+            }
+        }
+    }
+}
+
+TEST_CASE("total diffuse reflectance stays the disc integral's limit when 1 - alpha' rounds to 0 (fuzz finding)", "[subsurface]") {
+    // σ_a/σ_s′ ≈ 2e-19: α′ = 1 in double, yet σ_tr·z_v ≈ 1.9 with A = 2e9 (η = 0.098, the classical fit clamped).
+    // The textbook form of R_d^tot gave 1 against the disc integral's limit 0.573, so the 99 % radius was never
+    // found and default_gather_radius returned 1.3e154 (NaN profiles and outputs followed).
+    ss::material<double> m = ss::presets::marble<double>();
+    m.sigma_s_prime[1] = 2.62 * std::ldexp(1.0, 53);
+    m.sigma_s_prime[2] = 0;
+    m.eta = 0.09765625;
+    const ss::rgb_dipole d(m);
+    for (int c = 0; c < 3; ++c) {
+        CHECK(d.channel[c].total() == Approx(d.channel[c].disc_integral(1e12)).epsilon(1e-9));
+        CHECK(std::isfinite(d.channel[c].profile(1e200)));
+        CHECK(d.channel[c].profile(1e200) == 0);
+        CHECK(std::isfinite(d.channel[c].disc_integral(1e200)));
+        CHECK(d.channel[c].disc_integral(1e10, INFINITY) == 0);
+    }
+    CHECK(d.channel[1].total() == Approx(0.5 * (1 + std::exp(-d.channel[1].sigma_tr * d.channel[1].z_v))));
+    const double R = ss::default_gather_radius(d);
+    CHECK(std::isfinite(R));
+    CHECK(R < 100);  // 11.9 mm: 99 % of the red channel
+    // The same material on a default slab map: finite output.
+    const scaled_scene scene(1);
+    ss::material<float> mf;
+    mf.sigma_a = glm::vec3(m.sigma_a), mf.sigma_s_prime = glm::vec3(m.sigma_s_prime), mf.eta = float(m.eta);
+    for (const auto sampling : {ss::disc_sampling::profile, ss::disc_sampling::centre_first}) {
+        ss::gather_settings<float> s;
+        s.sampling = sampling;
+        s.samples = 32;
+        for (const glm::vec3& o : scene.gather(mf, s))
+            for (int c = 0; c < 3; ++c) CHECK((std::isfinite(o[c]) && o[c] >= 0));
+    }
+}
+
+TEST_CASE("map texels whose area or distance overflows contribute 0, and built maps never hold NaN (fuzz findings)", "[subsurface]") {
+    // A cube map whose +x texel claims a point 1e30 away: the sample's area (distance² ratio) overflowed to ∞ and
+    // met a profile of 0: NaN.
+    using cube = ss::cube_projection<float>;
+    const cube proj = cube::around(glm::vec3(0, 3, 0), 10.0f, 1);
+    glm::vec3 P[6], N[6], E[6];
+    for (int f = 0; f < 6; ++f) {
+        const auto ray = proj.texel_ray(f, {0.5f, 0.5f});
+        P[f] = ray.origin + ray.direction, N[f] = -ray.direction, E[f] = glm::vec3(0.5f);
+    }
+    P[0] = glm::vec3(-1e30f, 5.7e-6f, 0);
+    ss::light_map_view<cube> view;
+    view.projection = proj;
+    for (int f = 0; f < 6; ++f) view.faces[std::size_t(f)] = {{&P[f], 1, 1}, {&N[f], 1, 1}, {&E[f], 1, 1}, {}};
+    const glm::vec3 p(1, 3, 0), n(-1, 0, 0);
+    for (const bool exact : {false, true})
+        for (const auto sampling : {ss::disc_sampling::profile, ss::disc_sampling::centre_first}) {
+            ss::gather_settings<float> s;
+            s.sampling = sampling;
+            s.samples = 16;
+            s.exact_centre = exact;
+            s.tangent_plane = false;
+            s.fix_shrink = s.fix_intrude = s.fix_bias = false;
+            glm::vec3 out(-1);
+            ss::gather_subsurface(ss::visible_points<float>{{&p, 1, 1}, {&n, 1, 1}}, view, ss::presets::marble<float>(), s,
+                                  aaf::image_view<glm::vec3>(&out, 1, 1));
+            for (int c = 0; c < 3; ++c) CHECK((std::isfinite(out[c]) && out[c] >= 0));
+        }
+    // A point light whose tracer reports a hit a denormal distance from it, with a channel of zero power: the
+    // irradiance power·c/d² was 0·∞ = NaN there.
+    struct touching_tracer {
+        float nearest_occluder(const aaf::shadow_segment<float>&) const noexcept { return 1e-30f; }
+    };
+    const auto map = ss::build_light_map(cube::around(glm::vec3(0), 10.0f, 4), ss::map_light<float>{glm::vec3(1, 0, 2)}, 1.3f,
+                                         touching_tracer{}, [](const glm::vec3& q) { return glm::vec3(-glm::normalize(glm::dvec3(q))); });
+    for (int f = 0; f < 6; ++f)
+        for (std::size_t y = 0; y < 4; ++y)
+            for (std::size_t x = 0; x < 4; ++x)
+                for (int c = 0; c < 3; ++c) {
+                    const float e = map.irradiance[std::size_t(f)](x, y)[c];
+                    CHECK((std::isfinite(e) && e >= 0));
+                }
+}

@@ -7,6 +7,8 @@
 #include "subsurface/dipole.hpp"
 #include "subsurface/directional_dipole.hpp"
 #include "subsurface/light_map.hpp"
+#include "subsurface/area_light_map.hpp"
+#include "subsurface/profile_batch.hpp"
 #include "subsurface/epsilons.hpp"
 #include "subsurface/gather.hpp"
 #include "subsurface/reference.hpp"

@@ -25,6 +25,11 @@ namespace subsurface {
 ///   σ_s′ only (Jensen's table gives no g), so σ_t is unknown.
 /// * d_r is floored at D/10: for μ₀ → 0⁺ at r = 0 the formula's d_r = Dμ₀ goes to 0 and S′_d to infinity
 ///   (the test "finite at r → 0" would otherwise fail); the floor only acts within D/10 of the entry point.
+///
+/// NOT energy-bounded near the lossless limit, as published: the planar albedo reaches 1.22 at σ_a = 0, η = 1.3
+/// (the real source's d_r is shorter than the displacement its first-order term implies, and d_e = 2.131D puts
+/// the image farther than the boundary condition's 2D); the authors' sample code gives the same values
+/// (docs/DEVIATIONS.md S4). For energy-bounded output use the Jensen dipole.
 struct directional_dipole {
     double sigma_tr = 0, D = 0, d_e = 0, A = 1, sigma_t_prime = 0;
     double C_phi = 0, C_E = 0, C_phi_inv = 0;  ///< C_φ(η), C_E(η), C_φ(1/η)

@@ -215,6 +215,13 @@ struct map_texel {
     bool valid = false;
 };
 
+/// The texel index of continuous texel coordinate `t` along an axis of `size` texels: ⌊t⌋, or −1 when t is
+/// outside [0, size) or NaN (converting a far-away or NaN coordinate to an integer would be undefined).
+template <class T>
+[[nodiscard]] constexpr std::ptrdiff_t texel_index(T t, std::size_t size) noexcept {
+    return t >= T(0) && t < T(size) ? static_cast<std::ptrdiff_t>(t) : std::ptrdiff_t(-1);
+}
+
 /// Reads texel (i, j) of face `f`, reconstructing the position from depth when the face stores depth.
 template <class Projection>
 [[nodiscard]] map_texel<typename light_map_view<Projection>::T> read_texel(const light_map_view<Projection>& m, int f,
@@ -363,13 +370,17 @@ template <class Projection, class Tracer, class NormalFn = reconstruct_normals, 
                     }
                     N(x, y) = n;
                     const T c = glm::dot(n, to_light);
-                    if (!(c > T(0))) continue;
+                    // c > 1 or non-finite: a hit at (or a denormal distance from) a point light, where ω_l is undefined.
+                    if (!(c > T(0)) || !(c <= T(1) + T(1e-3))) continue;
                     T scale = c * fresnel_transmittance_in(c, eta);
                     if constexpr (Projection::faces() == 6) {
                         const vec3 d = p - projection.light;
                         scale /= glm::dot(d, d);
                     }
-                    E(x, y) = light.power * scale;
+                    // An overflowing E (a hit nearly touching a point light) is dropped rather than stored as ∞, which
+                    // would be NaN for a channel of zero power (fuzz finding).
+                    const vec3 e = light.power * scale;
+                    if (std::isfinite(e.x + e.y + e.z)) E(x, y) = e;
                 }
         });
     }
