@@ -4,6 +4,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -245,4 +247,53 @@ TEST_CASE("the AO frame driver: adaptive counts, heat maps, bent normals filtere
     CHECK(total == rays);
     // Pixels near the wall (small z_min) get more samples than pixels far from it.
     CHECK(spp(0, 0) > spp(23, 0));
+}
+
+// fuzz_occlusion's finding (fuzz/fuzz_occlusion.cpp, "β finite and ≥ 0"): a valid but denormal Ω_h (the fuzz
+// input's bit pattern 0x0000baba, 6.7e-41) under an occluder at 0.5 made Ω* = Ω_h/z_min ≈ 1.3e-40 and
+// β = 1/(2μΩ*) overflow to +∞ in the filter-width heat map; with a larger z_min, Ω* underflowed to 0 and the
+// pixel read as "no hit" (β = 0), the wrong limit. β → ∞ as Ω_h → 0: it is clamped to the largest float.
+TEST_CASE("AO filter width stays finite when the bandlimit is tiny or the occluder far (fuzz finding)", "[occlusion]") {
+    aaf::ao_filter_settings<float> s;
+    s.omega_h = std::bit_cast<float>(0x0000babau);
+    REQUIRE(s.omega_h > 0.0f);
+    REQUIRE(s.omega_h < std::numeric_limits<float>::min());  // denormal
+    REQUIRE_NOTHROW(aaf::validate(s));
+    constexpr float big = std::numeric_limits<float>::max();
+    CHECK(aaf::ao_filter_width(0.5f, s) == big);
+    CHECK(aaf::ao_filter_width(0.0f, s) == 0.0f);  // contact and no hit keep their meaning
+    CHECK(aaf::ao_filter_width(inf, s) == 0.0f);
+    aaf::ao_filter_settings<float> far;
+    far.omega_h = 1e-30f;
+    CHECK(aaf::ao_filter_width(1e30f, far) == big);  // Ω* = 1e-60 underflows; β must not read as "no hit"
+    CHECK(aaf::ao_filter_width(1.0f, far) == Approx(1.0 / (2 * 2 * 1e-30)).epsilon(1e-5));
+    aaf::ao_filter_settings<float> huge;  // 2μΩ_h overflows: β below any pixel, not NaN
+    huge.mu = 1e30f;
+    huge.omega_h = 1e30f;
+    CHECK(aaf::ao_filter_width(1.0f, huge) == 0.0f);
+
+    // The fuzz input's situation through the frame driver: a floor under a ceiling at 0.5, max distance 1.
+    const ao_scene ceiling{{ao_half_plane{{0, 0.5f, 0}, {0, -1, 0}, {}}}, {}};
+    floor_frame f(6, 3, 0.1f);
+    aaf::ao_frame_settings<float> fs;
+    fs.sampling.max_distance = 1.0f;
+    fs.filter.omega_h = s.omega_h;
+    aaf::image<float> vis(6, 3), raw(6, 3), beta(6, 3);
+    aaf::image<glm::vec3> bent(6, 3);
+    aaf::image<std::uint32_t> spp(6, 3);
+    aaf::render_ambient_occlusion(f.gb(), ao_tracer{&ceiling}, fs, aaf::ao_outputs<float>{vis.view(), bent.view(), beta.view(), spp.view()});
+    fs.filtered = false;
+    aaf::render_ambient_occlusion(f.gb(), ao_tracer{&ceiling}, fs, aaf::ao_outputs<float>{raw.view(), {}, {}, {}});
+    float lo = 1, hi = 0;
+    for (std::size_t y = 0; y < 3; ++y)
+        for (std::size_t x = 0; x < 6; ++x) lo = std::min(lo, raw(x, y)), hi = std::max(hi, raw(x, y));
+    for (std::size_t y = 0; y < 3; ++y)
+        for (std::size_t x = 0; x < 6; ++x) {
+            CAPTURE(x, y);
+            CHECK(beta(x, y) == big);  // every pixel sees the ceiling at 0.5
+            CHECK(std::isfinite(vis(x, y)));
+            CHECK(vis(x, y) >= lo - 1e-6f);  // a normalised average of the sampled values (the widest kernel)
+            CHECK(vis(x, y) <= hi + 1e-6f);
+            CHECK(glm::length(bent(x, y)) == Approx(1).epsilon(1e-5));
+        }
 }

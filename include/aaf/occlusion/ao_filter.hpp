@@ -46,12 +46,18 @@ template <class T>
 }
 
 /// The AO filter width β in world units: the standard deviation of the authors' kernel exp(−2μ²Ω*²r²),
-/// β = 1/(2μΩ*) = z_min/(2μΩ_h). 0 (do not filter) for no hit, contact and NaN.
+/// β = 1/(2μΩ*) = z/(2μΩ_h) with z = max(z_min, min_distance). 0 (do not filter) for no hit, contact and NaN.
+/// Computed as z/(2μΩ_h), not through Ω*: with a tiny Ω_h (any finite value > 0 is valid, down to the
+/// denormals) Ω* = Ω_h/z underflows, and 1/(2μΩ*) then overflowed to +∞ (or, with Ω* rounded to 0, read as
+/// "no hit" and left the pixel unfiltered). A width beyond the largest finite T is clamped to it: "wider than
+/// any kernel", whose radius filter.max_radius bounds. So β is always finite and ≥ 0 (heat maps, the filter).
 template <class T>
 [[nodiscard]] constexpr T ao_filter_width(T z_min, const ao_filter_settings<T>& s) noexcept {
-    const T omega = ao_filter_bandwidth(z_min, s);
-    if (!(omega > T(0)) || !(omega < std::numeric_limits<T>::infinity())) return T(0);
-    return T(1) / (T(2) * s.mu * omega);
+    if (std::isnan(z_min)) return T(0);
+    const T z = std::max(z_min, s.min_distance);
+    if (!(z > T(0)) || !(z < std::numeric_limits<T>::infinity())) return T(0);
+    const T beta = z / (T(2) * s.mu * s.omega_h);  // 2μΩ_h = +∞ (huge μΩ_h): β = 0, below every pixel
+    return std::isnan(beta) ? T(0) : std::min(beta, std::numeric_limits<T>::max());
 }
 
 /// Samples per pixel n = c_imp (μΩ_h d/z_min + α)² (1 + μ z_max/z_min)² Ω_h² (FORMULAS.md §4.2), real-valued,
