@@ -102,8 +102,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (std::size_t y = 0; y < h; ++y)
         for (std::size_t x = 0; x < w; ++x) {
             const glm::vec3 p = positions(x, y), n = normals(x, y);
-            const float len = glm::length(n);
-            const bool surface = std::isfinite(p.x + p.y + p.z) && len > 0.0f && std::isfinite(len);
+            // The library's rule (EXTREMES.md): a normal is usable unless it is zero or has a non-finite
+            // component, however short or long (not "|n| > 0 and finite" in float, which under/overflows).
+            const bool normal_ok = std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z) && n != glm::vec3(0);
+            const bool surface = std::isfinite(p.x + p.y + p.z) && normal_ok;
             const float v = vis(x, y);
             AAF_FUZZ_CHECK(beta(x, y) >= 0.0f && std::isfinite(beta(x, y)));
             if (!surface) {

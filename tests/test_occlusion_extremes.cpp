@@ -182,7 +182,7 @@ TEST_CASE("infinite, negative, zero and denormal pixel sizes and infinite normal
 // squares are denormal, |n| came out 20 % long and n/|n| had length 0.85; a fully occluded pixel's bent
 // normal is its normal, so the unit-length invariant broke. Unit normals come from the scaled vector now.
 TEST_CASE("tiny and large G-buffer normals are normalised to unit length (fuzz finding)", "[occlusion]") {
-    for (float c : {3.18675e-23f, 1e-19f, 1e18f}) {
+    for (float c : {3.18675e-23f, 1e-30f, 1e-19f, 1e18f, 1e30f}) {  // 1e-30, 1e30: |n| under- or overflows
         CAPTURE(c);
         frame f;
         for (std::size_t y = 0; y < 5; ++y)
@@ -205,5 +205,33 @@ TEST_CASE("tiny and large G-buffer normals are normalised to unit length (fuzz f
                     CHECK(bent(x, y).x == Approx(1 / std::sqrt(3.0f)).epsilon(1e-5));
                 }
         }
+    }
+}
+
+// fuzz_occlusion's third finding, the same underflow in the bent-normal sum: a quadratic falloff with R = 2.7e11
+// under an occluder at 0.5 weighs every direction by (t/R)² ≈ 3e-24, and Σ w·ω normalised by its own length
+// gave bent normals of length 0.96–1.03.
+TEST_CASE("bent normals of tiny falloff weights are unit (fuzz finding)", "[occlusion]") {
+    aaf::ao_stats<float> r;
+    r.bent_sum = glm::vec3(1e-23f, 2e-23f, -1e-23f);
+    CHECK(glm::length(r.bent_normal({0, 1, 0})) == Approx(1).epsilon(1e-6));
+    CHECK(r.bent_normal({0, 1, 0}).y == Approx(2 / std::sqrt(6.0f)).epsilon(1e-6));
+    frame f;
+    const aaf_test::ao_scene ceiling{{aaf_test::ao_half_plane{{0, 0.5f, 0}, {0, -1, 0}, {}}}, {}};
+    for (bool filtered : {false, true}) {
+        aaf::ao_frame_settings<float> s;
+        s.sampling.max_distance = 2.74878e11f;
+        s.sampling.falloff = aaf::ao_falloff::quadratic;
+        s.filtered = filtered;
+        aaf::image<float> vis(6, 5);
+        aaf::image<glm::vec3> bent(6, 5);
+        aaf::render_ambient_occlusion(f.gb(), aaf_test::ao_tracer{&ceiling}, s, aaf::ao_outputs<float>{vis.view(), bent.view(), {}, {}});
+        for (std::size_t y = 0; y < 5; ++y)
+            for (std::size_t x = 0; x < 6; ++x) {
+                CAPTURE(filtered, x, y);
+                CHECK(vis(x, y) < 1e-20f);
+                CHECK(vis(x, y) > 0.0f);
+                CHECK(glm::length(bent(x, y)) == Approx(1).epsilon(1e-5));
+            }
     }
 }

@@ -238,11 +238,10 @@ void filter_ambient_occlusion(const gbuffer<T, Ids>& gb, const_image_view<ao_sta
             for (std::size_t x = 0; x < w; ++x) {
                 out.visibility(x, y) = out_planes[0](x, y);
                 if (!with_bent) continue;
-                const glm::vec<3, T> f{out_planes[1](x, y), out_planes[2](x, y), out_planes[3](x, y)};
-                const T len = glm::length(f);
-                out.bent_normal(x, y) = len > T(0) && std::isfinite(len)
-                                            ? f / len
-                                            : glm::vec<3, T>{in_planes[1](x, y), in_planes[2](x, y), in_planes[3](x, y)};
+                const glm::vec<3, T> f = detail::ao_unit_or_zero(
+                    glm::vec<3, T>{out_planes[1](x, y), out_planes[2](x, y), out_planes[3](x, y)});
+                out.bent_normal(x, y) =
+                    f != glm::vec<3, T>(0) ? f : glm::vec<3, T>{in_planes[1](x, y), in_planes[2](x, y), in_planes[3](x, y)};
             }
         if (!out.filter_width.empty())
             for (std::size_t y = 0; y < h; ++y)
@@ -268,11 +267,9 @@ void filter_ambient_occlusion(const gbuffer<T, Ids>& gb, const_image_view<ao_sta
         }
         for (std::size_t y = 0; y < h; ++y)
             for (std::size_t x = 0; x < w; ++x) {
-                const glm::vec<3, T> f{filtered[0](x, y), filtered[1](x, y), filtered[2](x, y)};
-                const T len = glm::length(f);
-                out.bent_normal(x, y) = len > T(0) && std::isfinite(len)
-                                            ? f / len
-                                            : glm::vec<3, T>{bent[0](x, y), bent[1](x, y), bent[2](x, y)};
+                const glm::vec<3, T> f =
+                    detail::ao_unit_or_zero(glm::vec<3, T>{filtered[0](x, y), filtered[1](x, y), filtered[2](x, y)});
+                out.bent_normal(x, y) = f != glm::vec<3, T>(0) ? f : glm::vec<3, T>{bent[0](x, y), bent[1](x, y), bent[2](x, y)};
             }
     }
     if (!out.filter_width.empty())

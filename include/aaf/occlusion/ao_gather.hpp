@@ -56,19 +56,6 @@ struct ao_scratch {
     }
 };
 
-/// The unit normal of a G-buffer or mesh normal, or a zero vector when it has none: its length is 0 or not
-/// finite in T (zero, non-finite, or so short or long that |n| under- or overflows: docs/EXTREMES.md).
-/// The division is by the length of n scaled by its largest component, not by |n| itself: for components
-/// near 1e-23 (float) the squares in |n| are denormal and |n| is off by 20 %, and n/|n| was not unit
-/// (found by fuzz_occlusion: a fully occluded pixel's bent normal, which is the normal, had length 0.85).
-template <class T>
-[[nodiscard]] glm::vec<3, T> ao_unit_or_zero(const glm::vec<3, T>& n) noexcept {
-    const T len = glm::length(n);
-    if (!(len > T(0)) || !std::isfinite(len)) return glm::vec<3, T>(0);
-    const T largest = std::max({std::abs(n.x), std::abs(n.y), std::abs(n.z)});
-    const glm::vec<3, T> scaled = n / largest;  // largest component ±1: no under- or overflow in its length
-    return scaled / glm::length(scaled);
-}
 
 /// Draws `count` samples of pass `key.pass` at point `p` with unit normal `n` and adds them to `stats`.
 /// `distances`: ask for the nearest hit (z statistics, falloff); else any-hit visibility. Returns rays traced.
