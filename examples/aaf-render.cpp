@@ -231,6 +231,7 @@ int run_method(const options& opt) {
     picture_writer pictures(opt.out);
     pictures.gray(m.name + ".png", out.image);
     for (const auto& [name, picture] : out.pictures) pictures.gray(m.name + "-" + name + ".png", picture);
+    for (const auto& [name, picture] : out.colour_pictures) pictures.rgb(m.name + "-" + name + ".png", picture);
     double error = std::numeric_limits<double>::quiet_NaN();
     if (opt.reference) {
         const aaf_examples::reference_output ref = aaf_examples::find_reference(m.what).render(in, opt.reference_spp, 0);

@@ -4,7 +4,8 @@
 // are fuzzed distances (NaN, negative, +inf, huge, beyond the ray's length), through render_ambient_occlusion.
 //
 // Settings that validation rejects end the run (not a finding); so do settings beyond the harness's budget
-// (more than 256 samples per pixel, kernel or spread radii above 64 px).
+// (more than 256 samples per pixel, kernel or spread radii above 64 px). Both kernels (separable, direct with
+// the authors' 50θ term and z_min rejection) are fuzzed.
 //
 // Invariants (any violation aborts):
 // * a pixel with a non-finite position or a zero / non-finite normal has 0 samples, NaN visibility and a NaN
@@ -80,6 +81,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (s.sampling.max_samples > 256 || s.filter.max_radius > 64 || s.filter.spread_radius > 64) return 0;
     fuzz_tracer tracer;
     for (float& a : tracer.answers) a = in.value(0.5f);
+    // Read last, so that inputs found before these settings existed decode as they did (separable kernel).
+    if (in.flag()) {
+        s.filter.kernel = aaf::ao_filter_kernel::direct;
+        s.filter.normal_angle_term = in.flag() ? in.value(50.0f) : 0.0f;
+        s.filter.reject_beyond_z_min = in.flag();
+    }
 
     const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{positions.cview(), normals.cview(), pixel_size.cview(),
                                                                        ids.cview()};
@@ -95,8 +102,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (std::size_t y = 0; y < h; ++y)
         for (std::size_t x = 0; x < w; ++x) {
             const glm::vec3 p = positions(x, y), n = normals(x, y);
-            const float len = glm::length(n);
-            const bool surface = std::isfinite(p.x + p.y + p.z) && len > 0.0f && std::isfinite(len);
+            // The library's rule (EXTREMES.md): a normal is usable unless it is zero or has a non-finite
+            // component, however short or long (not "|n| > 0 and finite" in float, which under/overflows).
+            const bool normal_ok = std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z) && n != glm::vec3(0);
+            const bool surface = std::isfinite(p.x + p.y + p.z) && normal_ok;
             const float v = vis(x, y);
             AAF_FUZZ_CHECK(beta(x, y) >= 0.0f && std::isfinite(beta(x, y)));
             if (!surface) {

@@ -137,3 +137,101 @@ TEST_CASE("NaN/Inf G-buffer entries, zero normals and failing tracers give docum
     CHECK(aaf::falloff_visibility(aaf::ao_falloff::quadratic, 3.0f, 2.0f) == 1.0f);
     CHECK(aaf::falloff_visibility(aaf::ao_falloff::none, inf, inf) == 1.0f);
 }
+
+TEST_CASE("infinite, negative, zero and denormal pixel sizes and infinite normals give documented AO results", "[occlusion]") {
+    frame f;
+    f.d(0, 0) = inf;                                        // n = ∞: max_samples; β/d = 0 px: not filtered
+    f.d(1, 0) = -inf;                                       // n from d = 0; not filtered (d ≤ 0)
+    f.d(2, 0) = -0.01f;
+    f.d(3, 0) = 0.0f;
+    f.d(4, 0) = std::numeric_limits<float>::denorm_min();  // β/d = +∞ px: the max_radius window
+    f.n(5, 0) = glm::vec3(inf, 1, 0);                       // not finite: no surface
+    const aaf_test::ao_scene scene{{aaf_test::ao_half_plane{{0, 1, 0}, {0, 1, 0}}}, {}};
+    for (auto kernel : {aaf::ao_filter_kernel::separable, aaf::ao_filter_kernel::direct}) {
+        CAPTURE(static_cast<int>(kernel));
+        aaf::ao_frame_settings<float> s;
+        s.sampling.max_distance = 2;
+        s.filter.kernel = kernel;
+        aaf::image<float> vis(6, 5), beta(6, 5);
+        aaf::image<glm::vec3> bent(6, 5);
+        aaf::image<std::uint32_t> spp(6, 5);
+        aaf::render_ambient_occlusion(f.gb(), aaf_test::ao_tracer{&scene}, s,
+                                      aaf::ao_outputs<float>{vis.view(), bent.view(), beta.view(), spp.view()});
+        CHECK(spp(0, 0) == s.sampling.max_samples);
+        CHECK(std::isnan(vis(5, 0)));
+        CHECK(spp(5, 0) == 0u);
+        for (std::size_t y = 0; y < 5; ++y)
+            for (std::size_t x = 0; x < 6; ++x) {
+                if (x == 5 && y == 0) continue;
+                CAPTURE(x, y);
+                CHECK(std::isfinite(vis(x, y)));
+                CHECK(vis(x, y) >= 0.0f);
+                CHECK(vis(x, y) <= 1.0f);
+                CHECK(std::isfinite(beta(x, y)));
+                CHECK(beta(x, y) >= 0.0f);
+                CHECK(spp(x, y) >= s.sampling.initial_samples);
+                CHECK(spp(x, y) <= s.sampling.max_samples);
+                CHECK(glm::length(bent(x, y)) == Approx(1).epsilon(1e-5));
+            }
+        // Under a parallel plane at height 1 with R = 2 the exact value is h²/R² = 0.25 everywhere.
+        for (std::size_t x = 0; x < 5; ++x) CHECK(vis(x, 0) == Approx(0.25).margin(0.12));
+    }
+}
+
+// fuzz_occlusion's second finding: a normal of components 3.2e-23 (float) passes the "|n| > 0" rule, but its
+// squares are denormal, |n| came out 20 % long and n/|n| had length 0.85; a fully occluded pixel's bent
+// normal is its normal, so the unit-length invariant broke. Unit normals come from the scaled vector now.
+TEST_CASE("tiny and large G-buffer normals are normalised to unit length (fuzz finding)", "[occlusion]") {
+    for (float c : {3.18675e-23f, 1e-30f, 1e-19f, 1e18f, 1e30f}) {  // 1e-30, 1e30: |n| under- or overflows
+        CAPTURE(c);
+        frame f;
+        for (std::size_t y = 0; y < 5; ++y)
+            for (std::size_t x = 0; x < 6; ++x) {
+                f.p(x, y) = glm::vec3(0.1f * static_cast<float>(x), 0.5f, 0.1f * static_cast<float>(y));
+                f.n(x, y) = glm::vec3(c);
+            }
+        const aaf_test::ao_scene inside{{}, {aaf_test::ao_box{glm::vec3(-1), glm::vec3(2)}}};  // every ray hits
+        for (bool filtered : {false, true}) {
+            aaf::ao_frame_settings<float> s;
+            s.filtered = filtered;
+            aaf::image<float> vis(6, 5);
+            aaf::image<glm::vec3> bent(6, 5);
+            aaf::render_ambient_occlusion(f.gb(), aaf_test::ao_tracer{&inside}, s, aaf::ao_outputs<float>{vis.view(), bent.view(), {}, {}});
+            for (std::size_t y = 0; y < 5; ++y)
+                for (std::size_t x = 0; x < 6; ++x) {
+                    CAPTURE(filtered, x, y);
+                    CHECK(vis(x, y) == 0.0f);
+                    CHECK(glm::length(bent(x, y)) == Approx(1).epsilon(1e-5));
+                    CHECK(bent(x, y).x == Approx(1 / std::sqrt(3.0f)).epsilon(1e-5));
+                }
+        }
+    }
+}
+
+// fuzz_occlusion's third finding, the same underflow in the bent-normal sum: a quadratic falloff with R = 2.7e11
+// under an occluder at 0.5 weighs every direction by (t/R)² ≈ 3e-24, and Σ w·ω normalised by its own length
+// gave bent normals of length 0.96–1.03.
+TEST_CASE("bent normals of tiny falloff weights are unit (fuzz finding)", "[occlusion]") {
+    aaf::ao_stats<float> r;
+    r.bent_sum = glm::vec3(1e-23f, 2e-23f, -1e-23f);
+    CHECK(glm::length(r.bent_normal({0, 1, 0})) == Approx(1).epsilon(1e-6));
+    CHECK(r.bent_normal({0, 1, 0}).y == Approx(2 / std::sqrt(6.0f)).epsilon(1e-6));
+    frame f;
+    const aaf_test::ao_scene ceiling{{aaf_test::ao_half_plane{{0, 0.5f, 0}, {0, -1, 0}, {}}}, {}};
+    for (bool filtered : {false, true}) {
+        aaf::ao_frame_settings<float> s;
+        s.sampling.max_distance = 2.74878e11f;
+        s.sampling.falloff = aaf::ao_falloff::quadratic;
+        s.filtered = filtered;
+        aaf::image<float> vis(6, 5);
+        aaf::image<glm::vec3> bent(6, 5);
+        aaf::render_ambient_occlusion(f.gb(), aaf_test::ao_tracer{&ceiling}, s, aaf::ao_outputs<float>{vis.view(), bent.view(), {}, {}});
+        for (std::size_t y = 0; y < 5; ++y)
+            for (std::size_t x = 0; x < 6; ++x) {
+                CAPTURE(filtered, x, y);
+                CHECK(vis(x, y) < 1e-20f);
+                CHECK(vis(x, y) > 0.0f);
+                CHECK(glm::length(bent(x, y)) == Approx(1).epsilon(1e-5));
+            }
+    }
+}

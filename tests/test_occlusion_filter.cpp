@@ -4,6 +4,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -245,4 +247,156 @@ TEST_CASE("the AO frame driver: adaptive counts, heat maps, bent normals filtere
     CHECK(total == rays);
     // Pixels near the wall (small z_min) get more samples than pixels far from it.
     CHECK(spp(0, 0) > spp(23, 0));
+}
+
+// fuzz_occlusion's finding (fuzz/fuzz_occlusion.cpp, "β finite and ≥ 0"): a valid but denormal Ω_h (the fuzz
+// input's bit pattern 0x0000baba, 6.7e-41) under an occluder at 0.5 made Ω* = Ω_h/z_min ≈ 1.3e-40 and
+// β = 1/(2μΩ*) overflow to +∞ in the filter-width heat map; with a larger z_min, Ω* underflowed to 0 and the
+// pixel read as "no hit" (β = 0), the wrong limit. β → ∞ as Ω_h → 0: it is clamped to the largest float.
+TEST_CASE("AO filter width stays finite when the bandlimit is tiny or the occluder far (fuzz finding)", "[occlusion]") {
+    aaf::ao_filter_settings<float> s;
+    s.omega_h = std::bit_cast<float>(0x0000babau);
+    REQUIRE(s.omega_h > 0.0f);
+    REQUIRE(s.omega_h < std::numeric_limits<float>::min());  // denormal
+    REQUIRE_NOTHROW(aaf::validate(s));
+    constexpr float big = std::numeric_limits<float>::max();
+    CHECK(aaf::ao_filter_width(0.5f, s) == big);
+    CHECK(aaf::ao_filter_width(0.0f, s) == 0.0f);  // contact and no hit keep their meaning
+    CHECK(aaf::ao_filter_width(inf, s) == 0.0f);
+    aaf::ao_filter_settings<float> far;
+    far.omega_h = 1e-30f;
+    CHECK(aaf::ao_filter_width(1e30f, far) == big);  // Ω* = 1e-60 underflows; β must not read as "no hit"
+    CHECK(aaf::ao_filter_width(1.0f, far) == Approx(1.0 / (2 * 2 * 1e-30)).epsilon(1e-5));
+    aaf::ao_filter_settings<float> huge;  // 2μΩ_h overflows: β below any pixel, not NaN
+    huge.mu = 1e30f;
+    huge.omega_h = 1e30f;
+    CHECK(aaf::ao_filter_width(1.0f, huge) == 0.0f);
+
+    // The fuzz input's situation through the frame driver: a floor under a ceiling at 0.5, max distance 1.
+    const ao_scene ceiling{{ao_half_plane{{0, 0.5f, 0}, {0, -1, 0}, {}}}, {}};
+    floor_frame f(6, 3, 0.1f);
+    aaf::ao_frame_settings<float> fs;
+    fs.sampling.max_distance = 1.0f;
+    fs.filter.omega_h = s.omega_h;
+    aaf::image<float> vis(6, 3), raw(6, 3), beta(6, 3);
+    aaf::image<glm::vec3> bent(6, 3);
+    aaf::image<std::uint32_t> spp(6, 3);
+    aaf::render_ambient_occlusion(f.gb(), ao_tracer{&ceiling}, fs, aaf::ao_outputs<float>{vis.view(), bent.view(), beta.view(), spp.view()});
+    fs.filtered = false;
+    aaf::render_ambient_occlusion(f.gb(), ao_tracer{&ceiling}, fs, aaf::ao_outputs<float>{raw.view(), {}, {}, {}});
+    float lo = 1, hi = 0;
+    for (std::size_t y = 0; y < 3; ++y)
+        for (std::size_t x = 0; x < 6; ++x) lo = std::min(lo, raw(x, y)), hi = std::max(hi, raw(x, y));
+    for (std::size_t y = 0; y < 3; ++y)
+        for (std::size_t x = 0; x < 6; ++x) {
+            CAPTURE(x, y);
+            CHECK(beta(x, y) == big);  // every pixel sees the ceiling at 0.5
+            CHECK(std::isfinite(vis(x, y)));
+            CHECK(vis(x, y) >= lo - 1e-6f);  // a normalised average of the sampled values (the widest kernel)
+            CHECK(vis(x, y) <= hi + 1e-6f);
+            CHECK(glm::length(bent(x, y)) == Approx(1).epsilon(1e-5));
+        }
+}
+
+namespace {
+
+/// The direct kernel's definition for one pixel, in double, on a floor_frame without IDs differences:
+/// Σ w v / Σ w over the window, w = exp(−r²(1 + cθ)²/(2β²)), cut at e > truncation²/2, tangent-plane r.
+double direct_reference(const floor_frame& f, const aaf::image<aaf::ao_stats<float>>& st, std::size_t x, std::size_t y,
+                        const aaf::ao_filter_settings<float>& s) {
+    const double beta = aaf::ao_filter_width(st(x, y).z_min, s), d = f.pixel_size(x, y);
+    const auto r = static_cast<long>(std::min<double>(std::ceil(static_cast<double>(s.truncation) * beta / d), s.max_radius));
+    const glm::dvec3 p(f.positions(x, y)), n = glm::normalize(glm::dvec3(f.normals(x, y)));
+    const double cos_threshold = std::cos(static_cast<double>(s.normal_threshold_degrees) * 3.14159265358979 / 180);
+    double sum = 0, wsum = 0;
+    for (long dy = -r; dy <= r; ++dy)
+        for (long dx = -r; dx <= r; ++dx) {
+            const long nx = static_cast<long>(x) + dx, ny = static_cast<long>(y) + dy;
+            if (nx < 0 || ny < 0 || nx >= static_cast<long>(st.width()) || ny >= static_cast<long>(st.height())) continue;
+            const auto ux = static_cast<std::size_t>(nx), uy = static_cast<std::size_t>(ny);
+            const glm::dvec3 q(f.positions(ux, uy)), m = glm::normalize(glm::dvec3(f.normals(ux, uy)));
+            if (glm::dot(n, m) < cos_threshold) continue;
+            const glm::dvec3 dp = q - p;
+            if (s.reject_beyond_z_min && glm::length(dp) >= static_cast<double>(st(x, y).z_min)) continue;
+            const double along = glm::dot(dp, n), r2 = glm::dot(dp, dp) - along * along;
+            const double factor = 1 + static_cast<double>(s.normal_angle_term) * std::acos(std::clamp(glm::dot(n, m), -1.0, 1.0));
+            const double e = r2 * factor * factor / (2 * beta * beta);
+            if (e > static_cast<double>(s.truncation * s.truncation) / 2) continue;
+            sum += std::exp(-e) * static_cast<double>(st(ux, uy).visibility());
+            wsum += std::exp(-e);
+        }
+    return sum / wsum;
+}
+
+}  // namespace
+
+TEST_CASE("the direct AO kernel: its definition, the authors' 50-theta term and z_min rejection", "[occlusion]") {
+    // A gently curved strip: the normal turns 0.4 degrees per column (within the 5 degree threshold over
+    // 12 columns), AO alternating by column, β = 0.6/(2·2·2.8) = 0.054 = 1.07 px.
+    floor_frame f(24, 5, 0.05f);
+    aaf::image<aaf::ao_stats<float>> st(24, 5);
+    for (std::size_t y = 0; y < 5; ++y)
+        for (std::size_t x = 0; x < 24; ++x) {
+            const float a = 0.4f * static_cast<float>(x) * 3.14159265f / 180.0f;
+            f.normals(x, y) = {std::sin(a), std::cos(a), 0};
+            st(x, y) = record(x % 2 ? 0.2f : 0.6f, 0.6f);
+        }
+    aaf::image<float> plain(24, 5), theta(24, 5);
+    aaf::ao_filter_settings<float> s;
+    s.kernel = aaf::ao_filter_kernel::direct;
+    s.space = aaf::offset_space::tangent_plane;
+    aaf::filter_ambient_occlusion(f.gb(), st.cview(), s, aaf::ao_outputs<float>{plain.view(), {}, {}, {}});
+    aaf::ao_filter_settings<float> authors = s;
+    authors.normal_angle_term = 50;
+    aaf::filter_ambient_occlusion(f.gb(), st.cview(), authors, aaf::ao_outputs<float>{theta.view(), {}, {}, {}});
+    for (std::size_t y = 0; y < 5; ++y)
+        for (std::size_t x = 0; x < 24; ++x) {
+            CAPTURE(x, y);
+            CHECK(plain(x, y) == Approx(direct_reference(f, st, x, y, s)).epsilon(1e-4));
+            CHECK(theta(x, y) == Approx(direct_reference(f, st, x, y, authors)).epsilon(1e-4));
+        }
+    // Narrower across curvature: the 50θ filter keeps more of each pixel's own value (0.2 or 0.6) than the
+    // plain one, which smooths towards 0.4.
+    double own_plain = 0, own_theta = 0;
+    for (std::size_t y = 0; y < 5; ++y)
+        for (std::size_t x = 0; x < 24; ++x) {
+            own_plain += static_cast<double>(std::abs(plain(x, y) - 0.4f));
+            own_theta += static_cast<double>(std::abs(theta(x, y) - 0.4f));
+        }
+    CHECK(own_theta > 2 * own_plain);
+
+    SECTION("a step along the normal passes the tangent-plane distance; z_min rejection stops it") {
+        floor_frame g(16, 3, 0.05f);
+        aaf::image<aaf::ao_stats<float>> st2(16, 3);
+        for (std::size_t y = 0; y < 3; ++y)
+            for (std::size_t x = 0; x < 16; ++x) {
+                if (x >= 8) g.positions(x, y).y = 1.0f;                 // a ledge 1 unit up, same normal and ID
+                st2(x, y) = record(x < 8 ? 0.2f : 0.8f, 0.9f);  // z_min 0.9 < the step: β = 0.08 = 1.6 px
+            }
+        aaf::image<float> out(16, 3);
+        aaf::ao_filter_settings<float> r = s;
+        aaf::filter_ambient_occlusion(g.gb(), st2.cview(), r, aaf::ao_outputs<float>{out.view(), {}, {}, {}});
+        CHECK(out(7, 1) > 0.25f);  // the ledge's 0.8 leaks across the step
+        r.reject_beyond_z_min = true;
+        aaf::filter_ambient_occlusion(g.gb(), st2.cview(), r, aaf::ao_outputs<float>{out.view(), {}, {}, {}});
+        for (std::size_t y = 0; y < 3; ++y)
+            for (std::size_t x = 0; x < 16; ++x) CHECK(out(x, y) == Approx(x < 8 ? 0.2f : 0.8f).epsilon(1e-6));
+    }
+    SECTION("bent normals through the direct kernel stay unit") {
+        aaf::image<glm::vec3> bent(24, 5);
+        aaf::filter_ambient_occlusion(f.gb(), st.cview(), authors, aaf::ao_outputs<float>{theta.view(), bent.view(), {}, {}});
+        for (std::size_t y = 0; y < 5; ++y)
+            for (std::size_t x = 0; x < 24; ++x) CHECK(glm::length(bent(x, y)) == Approx(1).epsilon(1e-5));
+    }
+    SECTION("the separable kernel refuses the terms it cannot apply") {
+        aaf::ao_filter_settings<float> bad = authors;
+        bad.kernel = aaf::ao_filter_kernel::separable;
+        CHECK_THROWS_WITH(aaf::filter_ambient_occlusion(f.gb(), st.cview(), bad, aaf::ao_outputs<float>{theta.view(), {}, {}, {}}),
+                          Catch::Contains("settings.kernel"));
+        bad = s;
+        bad.normal_angle_term = qnan;
+        CHECK_THROWS_WITH(aaf::validate(bad), Catch::Contains("settings.normal_angle_term"));
+        bad.normal_angle_term = -1;
+        CHECK_THROWS_WITH(aaf::validate(bad), Catch::Contains("settings.normal_angle_term"));
+    }
 }

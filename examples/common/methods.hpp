@@ -15,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <aaf/debug.hpp>
 #include <aaf/executor.hpp>
 #include <aaf/image.hpp>
 
@@ -50,6 +51,7 @@ struct method_output {
     std::size_t memory_bytes = 0;                                      ///< working memory beyond the G-buffer (maps, statistics)
     std::vector<std::pair<std::string, double>> stages_ms;             ///< named stages' times, e.g. {"rays", 12.5}
     std::vector<std::pair<std::string, aaf::image<float>>> pictures;   ///< extra pictures for aaf-render (heat maps, ...)
+    std::vector<std::pair<std::string, aaf::image<aaf::rgb8>>> colour_pictures;  ///< extra RGB pictures (heat maps, bent normals)
     nlohmann::json point_settings = nlohmann::json::object();          ///< settings that vary along the knob, for the JSON
 };
 

@@ -1,9 +1,14 @@
 // SPDX-License-Identifier: MIT
 #include "common/occlusion_methods.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <aaf/occlusion.hpp>
 
@@ -77,6 +82,13 @@ void add_shading_pictures(method_output& out, const render_inputs& in, const aaf
             const float ambient = albedo * ao(x, y) * aaf::sh_irradiance(sh, b).x / 3.14159265f;
             shaded(x, y) = std::min(1.0f, 0.7f * direct + 0.3f * ambient);
         }
+    aaf::image<aaf::rgb8> bent_rgb(w, h);
+    for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x) {
+            const auto c = [](float v) { return static_cast<std::uint8_t>(std::lround(255.0f * std::clamp(v, 0.0f, 1.0f))); };
+            bent_rgb(x, y) = {c(br(x, y)), c(bg(x, y)), c(bb(x, y))};
+        }
+    out.colour_pictures.emplace_back("bent_normal", std::move(bent_rgb));
     out.pictures.emplace_back("bent_normal_r", std::move(br));
     out.pictures.emplace_back("bent_normal_g", std::move(bg));
     out.pictures.emplace_back("bent_normal_b", std::move(bb));
@@ -84,12 +96,15 @@ void add_shading_pictures(method_output& out, const render_inputs& in, const aaf
     out.pictures.emplace_back("ao_diffuse_ambient", std::move(shaded));
 }
 
-method_output render_aaf_ao(const render_inputs& in, float mu) {
+/// aaf_ao and its variants: `variant` changes the default frame settings (kernel, the authors' terms, or
+/// no filter at all on the same samples).
+method_output render_aaf_ao(const render_inputs& in, float mu, const std::function<void(aaf::ao_frame_settings<float>&)>& variant = {}) {
     const std::size_t w = in.g.positions.width(), h = in.g.positions.height();
     aaf::ao_frame_settings<float> s;
     s.sampling.max_distance = ao_max_distance(in.s);
     s.sampling.frame_seed = in.seed;
     s.filter.mu = mu;
+    if (variant) variant(s);
     aaf::image<float> vis(w, h), beta(w, h);
     aaf::image<glm::vec3> bent(w, h);
     aaf::image<std::uint32_t> spp(w, h);
@@ -107,6 +122,19 @@ method_output render_aaf_ao(const render_inputs& in, float mu) {
             beta_px(x, y) = d > 0 && std::isfinite(beta(x, y) / d) ? beta(x, y) / d : 0.0f;
             samples(x, y) = static_cast<float>(spp(x, y));
         }
+    // Heat maps (viridis; magenta = sky, or β = 0: not filtered): β in pixels on a log scale, samples linear.
+    aaf::image<float> beta_heat(w, h), samples_heat(w, h);
+    for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x) {
+            const bool surface = std::isfinite(in.g.positions(x, y).x);
+            beta_heat(x, y) = surface && beta_px(x, y) > 0 ? beta_px(x, y) : std::numeric_limits<float>::quiet_NaN();
+            samples_heat(x, y) = surface ? samples(x, y) : std::numeric_limits<float>::quiet_NaN();
+        }
+    aaf::image<aaf::rgb8> rgb(w, h);
+    aaf::heat_map<float>(beta_heat.cview(), rgb.view(), {}, true);
+    out.colour_pictures.emplace_back("ao_filter_width_heat", rgb);
+    aaf::heat_map<float>(samples_heat.cview(), rgb.view());
+    out.colour_pictures.emplace_back("ao_samples_heat", std::move(rgb));
     out.pictures.emplace_back("ao_filter_width_px", std::move(beta_px));
     out.pictures.emplace_back("ao_samples", std::move(samples));
     add_shading_pictures(out, in, out.image, bent);
@@ -181,7 +209,46 @@ method_family occlusion_methods() {
                   {"space", "tangent_plane"},
                   {"max_distance", "0.2 x scene diagonal"}};
     a.render = [](const render_inputs& in, double knob) { return render_aaf_ao(in, static_cast<float>(knob)); };
-    f.methods.push_back(std::move(a));
+    f.methods.push_back(a);
+
+    // Variants of aaf_ao on the same samples (same seed, same adaptive counts): the filter's gain at equal
+    // rays, and the authors' kernel terms that aaf leaves out by default (docs/DEVIATIONS.md occlusion rows
+    // 2, 3), measured through aaf-tradeoff --methods.
+    using frame = aaf::ao_frame_settings<float>;
+    const auto variant = [&](std::string name, std::string help, std::function<void(frame&)> change,
+                             std::vector<std::pair<std::string, nlohmann::json>> extra) {
+        method v = a;
+        v.name = std::move(name);
+        v.help = std::move(help);
+        for (auto& [k, value] : extra) v.settings[k] = std::move(value);
+        v.render = [change](const render_inputs& in, double knob) { return render_aaf_ao(in, static_cast<float>(knob), change); };
+        f.methods.push_back(std::move(v));
+    };
+    variant("aaf_ao_unfiltered", "aaf_ao's samples (16 + adaptive n from z_min/z_max), not filtered: the filter's gain at equal rays",
+            [](frame& s) { s.filtered = false; }, {{"filtered", false}});
+    variant("aaf_ao_direct", "aaf_ao with the direct 2D kernel (ao_filter_kernel::direct) instead of the separable one",
+            [](frame& s) { s.filter.kernel = aaf::ao_filter_kernel::direct; }, {{"kernel", "direct"}});
+    variant("aaf_ao_50theta", "aaf_ao_direct with the authors' per-neighbour bandwidth (1 + 50 theta) (normal_angle_term = 50)",
+            [](frame& s) {
+                s.filter.kernel = aaf::ao_filter_kernel::direct;
+                s.filter.normal_angle_term = 50;
+            },
+            {{"kernel", "direct"}, {"normal_angle_term", 50}});
+    variant("aaf_ao_zreject", "aaf_ao_direct with the authors' rejection of neighbours farther than z_min (reject_beyond_z_min)",
+            [](frame& s) {
+                s.filter.kernel = aaf::ao_filter_kernel::direct;
+                s.filter.reject_beyond_z_min = true;
+            },
+            {{"kernel", "direct"}, {"reject_beyond_z_min", true}});
+    variant("aaf_ao_zclamp", "aaf_ao with z_min clamped to at least 0.1 world units (min_distance), as the authors' scene constant",
+            [](frame& s) { s.filter.min_distance = 0.1f; }, {{"min_distance", 0.1}});
+    variant("aaf_ao_authors", "aaf_ao_direct with both of the authors' terms (50 theta and |dp| < z_min rejection)",
+            [](frame& s) {
+                s.filter.kernel = aaf::ao_filter_kernel::direct;
+                s.filter.normal_angle_term = 50;
+                s.filter.reject_beyond_z_min = true;
+            },
+            {{"kernel", "direct"}, {"normal_angle_term", 50}, {"reject_beyond_z_min", true}});
 
     method m;
     m.name = "sm_ao";

@@ -24,16 +24,17 @@ TEST_CASE("occlusion methods render the boxes scene and aaf_ao beats Monte Carlo
     const gbuffer_images g = render_gbuffer(s, tracer, pool);
     const render_inputs in{s, tracer, g, pool, 3};
     const method_family f = occlusion_methods();
-    REQUIRE(f.methods.size() == 4);
+    REQUIRE(f.methods.size() == 10);  // mc x2, aaf_ao and its 6 variants, sm_ao
     REQUIRE(f.references.size() == 1);
     CHECK(f.references[0].what == quantity::ambient_occlusion);
     const aaf::image<float> ref = f.references[0].render(in, 1024, 77).image;
     const auto mask = g.surface_mask();
-    double mc_error = 0, aaf_error = 0;
+    double mc_error = 0, aaf_error = 0, unfiltered_error = 0, authors_error = 0;
     for (const method& m : f.methods) {
         CAPTURE(m.name);
         CHECK(m.what == quantity::ambient_occlusion);
-        const method_output out = m.render(in, m.name == "aaf_ao" ? 2.0 : 16.0);
+        const bool filtered = m.name.rfind("aaf_ao", 0) == 0;
+        const method_output out = m.render(in, filtered ? 2.0 : 16.0);
         REQUIRE(out.image.width() == s.width);
         REQUIRE(out.image.height() == s.height);
         CHECK(out.rays >= 16 * g.surfaces);
@@ -48,10 +49,20 @@ TEST_CASE("occlusion methods render the boxes scene and aaf_ao beats Monte Carlo
         if (m.name == "aaf_ao") {
             aaf_error = e;
             CHECK(out.pictures.size() == 7);
+            REQUIRE(out.colour_pictures.size() == 3);  // bent normals, β and samples heat maps
+            for (const auto& [name, picture] : out.colour_pictures) {
+                CAPTURE(name);
+                CHECK(picture.width() == s.width);
+                CHECK(picture.height() == s.height);
+            }
         }
+        if (m.name == "aaf_ao_unfiltered") unfiltered_error = e;
+        if (m.name == "aaf_ao_authors") authors_error = e;
     }
-    CAPTURE(mc_error, aaf_error);
+    CAPTURE(mc_error, aaf_error, unfiltered_error, authors_error);
     CHECK(aaf_error < mc_error);
+    CHECK(aaf_error < unfiltered_error);     // the same samples, filtered or not
+    CHECK(authors_error < unfiltered_error);
 
     // sm_ao: one 256² map live at a time, and more directions bring it nearer the reference.
     const method* sm = nullptr;

@@ -46,12 +46,18 @@ template <class T>
 }
 
 /// The AO filter width β in world units: the standard deviation of the authors' kernel exp(−2μ²Ω*²r²),
-/// β = 1/(2μΩ*) = z_min/(2μΩ_h). 0 (do not filter) for no hit, contact and NaN.
+/// β = 1/(2μΩ*) = z/(2μΩ_h) with z = max(z_min, min_distance). 0 (do not filter) for no hit, contact and NaN.
+/// Computed as z/(2μΩ_h), not through Ω*: with a tiny Ω_h (any finite value > 0 is valid, down to the
+/// denormals) Ω* = Ω_h/z underflows, and 1/(2μΩ*) then overflowed to +∞ (or, with Ω* rounded to 0, read as
+/// "no hit" and left the pixel unfiltered). A width beyond the largest finite T is clamped to it: "wider than
+/// any kernel", whose radius filter.max_radius bounds. So β is always finite and ≥ 0 (heat maps, the filter).
 template <class T>
 [[nodiscard]] constexpr T ao_filter_width(T z_min, const ao_filter_settings<T>& s) noexcept {
-    const T omega = ao_filter_bandwidth(z_min, s);
-    if (!(omega > T(0)) || !(omega < std::numeric_limits<T>::infinity())) return T(0);
-    return T(1) / (T(2) * s.mu * omega);
+    if (std::isnan(z_min)) return T(0);
+    const T z = std::max(z_min, s.min_distance);
+    if (!(z > T(0)) || !(z < std::numeric_limits<T>::infinity())) return T(0);
+    const T beta = z / (T(2) * s.mu * s.omega_h);  // 2μΩ_h = +∞ (huge μΩ_h): β = 0, below every pixel
+    return std::isnan(beta) ? T(0) : std::min(beta, std::numeric_limits<T>::max());
 }
 
 /// Samples per pixel n = c_imp (μΩ_h d/z_min + α)² (1 + μ z_max/z_min)² Ω_h² (FORMULAS.md §4.2), real-valued,
@@ -109,6 +115,70 @@ template <class T>
     return f;
 }
 
+/// The direct 2D kernel (ao_filter_kernel::direct): each pixel with a finite value and β > 0 averages its
+/// window's accepted neighbours (finite value, same ID, normal within the threshold, and with
+/// `reject_beyond_z_min` a world distance below the centre's z) with the weight exp(−e),
+/// e = r²(1 + cθ)²/(2β²), r the tangent-plane or image distance as for the separable filter (the centre's
+/// normal and pixel size), c = normal_angle_term, θ the normals' angle; taps with e > truncation²/2 are cut
+/// (the authors' μ²Ω*²r² ≤ 2). The window is the separable filter's: kernel_radius(β/d) pixels. `values`
+/// holds `planes` images filtered with the same weights (AO, then the bent normal's components).
+template <class T, class G, class Exec>
+void ao_direct_filter(const G& g, const_image_view<T> pixel_size, const image<T>& beta, const image<T>& z,
+                      const image<T>* values, image<T>* results, std::size_t planes, const ao_filter_settings<T>& s,
+                      Exec& exec) {
+    const std::size_t w = beta.width(), h = beta.height();
+    const filter_settings<T> fs = ao_core_filter_settings(s);
+    const T cos_threshold = std::cos(s.normal_threshold_degrees * T(0.017453292519943295));
+    const T e_cut = s.truncation * s.truncation / T(2);
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        T sum[4], wsum;
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                for (std::size_t c = 0; c < planes; ++c) results[c](x, y) = values[c](x, y);
+                const T b = beta(x, y), d = pixel_size(x, y);
+                if (!std::isfinite(values[0](x, y)) || !(b > T(0)) || !(d > T(0))) continue;
+                const std::size_t r = kernel_radius(b / d, fs);
+                if (r == 0) continue;
+                const guide_center<T, G> gc(g, x, y);
+                const glm::vec<3, T> p = g.positions(x, y);
+                const T inv_two_beta2 = T(1) / (T(2) * b * b);
+                const T reject2 = z(x, y) * z(x, y);
+                for (std::size_t c = 0; c < planes; ++c) sum[c] = T(0);
+                wsum = T(0);
+                const std::size_t ya = y >= r ? y - r : 0, yb = std::min(h - 1, y + r);
+                const std::size_t xa = x >= r ? x - r : 0, xb = std::min(w - 1, x + r);
+                for (std::size_t ny = ya; ny <= yb; ++ny)
+                    for (std::size_t nx = xa; nx <= xb; ++nx) {
+                        if (!std::isfinite(values[0](nx, ny)) || !gc.accepts(g, nx, ny, cos_threshold)) continue;
+                        const glm::vec<3, T> dp = g.positions(nx, ny) - p;
+                        if (s.reject_beyond_z_min && !(glm::dot(dp, dp) < reject2)) continue;  // NaN position rejects
+                        T r2;
+                        if (s.space == offset_space::tangent_plane) {
+                            r2 = light_plane_distance2<T>(g.positions(nx, ny), p, gc.normal);
+                        } else {
+                            const T dx = static_cast<T>(nx) - static_cast<T>(x), dy = static_cast<T>(ny) - static_cast<T>(y);
+                            r2 = (dx * dx + dy * dy) * d * d;
+                        }
+                        T e = r2 * inv_two_beta2;
+                        if (s.normal_angle_term > T(0)) {
+                            // atan2(|n×m|, n·m), not acos(n·m): acos loses most digits of the small angles
+                            // that pass the threshold (float: ~0.1 % of θ at 0.4°, times c = 50 in f).
+                            const glm::vec<3, T> m = g.normals(nx, ny);
+                            const T angle = std::atan2(glm::length(glm::cross(gc.normal, m)), glm::dot(gc.normal, m));
+                            const T f = T(1) + s.normal_angle_term * angle;
+                            e *= f * f;
+                        }
+                        if (!(e <= e_cut)) continue;  // beyond the cut, or a NaN position
+                        const T weight = std::exp(-e);
+                        for (std::size_t c = 0; c < planes; ++c) sum[c] += weight * values[c](nx, ny);
+                        wsum += weight;
+                    }
+                // The centre is always accepted with weight 1 (e = 0), so wsum >= 1.
+                for (std::size_t c = 0; c < planes; ++c) results[c](x, y) = sum[c] / wsum;
+            }
+    });
+}
+
 }  // namespace detail
 
 /// Filters a frame of AO records into `out`: β from each pixel's z_min (ao_filter_width), then the core's
@@ -147,6 +217,37 @@ void filter_ambient_occlusion(const gbuffer<T, Ids>& gb, const_image_view<ao_sta
                 for (int c = 0; c < 3; ++c) bent[c](x, y) = b[c];
             }
         }
+    if (s.kernel == ao_filter_kernel::direct) {
+        // z for reject_beyond_z_min: the centre's z_min as β uses it (clamped by min_distance).
+        image<T> z(w, h);
+        for (std::size_t y = 0; y < h; ++y)
+            for (std::size_t x = 0; x < w; ++x) z(x, y) = std::max(stats(x, y).z_min, s.min_distance);
+        std::array<image<T>, 4> in_planes, out_planes;
+        in_planes[0] = std::move(vis);
+        const std::size_t planes = with_bent ? 4 : 1;
+        for (std::size_t c = 1; c < planes; ++c) in_planes[c] = std::move(bent[c - 1]);
+        for (std::size_t c = 0; c < planes; ++c) out_planes[c].reset(w, h);
+        const auto direct = [&](const auto& g) {
+            detail::ao_direct_filter<T>(g, gb.pixel_size, beta, z, in_planes.data(), out_planes.data(), planes, s, exec);
+        };
+        if constexpr (gbuffer<T, Ids>::has_ids)
+            direct(guides{normals.cview(), gb.ids, gb.positions});
+        else
+            direct(guides{normals.cview(), no_guide{}, gb.positions});
+        for (std::size_t y = 0; y < h; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                out.visibility(x, y) = out_planes[0](x, y);
+                if (!with_bent) continue;
+                const glm::vec<3, T> f = detail::ao_unit_or_zero(
+                    glm::vec<3, T>{out_planes[1](x, y), out_planes[2](x, y), out_planes[3](x, y)});
+                out.bent_normal(x, y) =
+                    f != glm::vec<3, T>(0) ? f : glm::vec<3, T>{in_planes[1](x, y), in_planes[2](x, y), in_planes[3](x, y)};
+            }
+        if (!out.filter_width.empty())
+            for (std::size_t y = 0; y < h; ++y)
+                for (std::size_t x = 0; x < w; ++x) out.filter_width(x, y) = beta(x, y);
+        return;
+    }
     const filter_settings<T> fs = detail::ao_core_filter_settings(s);
     image<T> scratch(w, h);
     const auto run = [&](const image<T>& src, image_view<T> dst) {
@@ -166,11 +267,9 @@ void filter_ambient_occlusion(const gbuffer<T, Ids>& gb, const_image_view<ao_sta
         }
         for (std::size_t y = 0; y < h; ++y)
             for (std::size_t x = 0; x < w; ++x) {
-                const glm::vec<3, T> f{filtered[0](x, y), filtered[1](x, y), filtered[2](x, y)};
-                const T len = glm::length(f);
-                out.bent_normal(x, y) = len > T(0) && std::isfinite(len)
-                                            ? f / len
-                                            : glm::vec<3, T>{bent[0](x, y), bent[1](x, y), bent[2](x, y)};
+                const glm::vec<3, T> f =
+                    detail::ao_unit_or_zero(glm::vec<3, T>{filtered[0](x, y), filtered[1](x, y), filtered[2](x, y)});
+                out.bent_normal(x, y) = f != glm::vec<3, T>(0) ? f : glm::vec<3, T>{bent[0](x, y), bent[1](x, y), bent[2](x, y)};
             }
     }
     if (!out.filter_width.empty())

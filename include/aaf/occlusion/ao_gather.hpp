@@ -56,13 +56,6 @@ struct ao_scratch {
     }
 };
 
-/// The unit normal of a G-buffer or mesh normal, or a zero vector when it has none (zero, non-finite).
-template <class T>
-[[nodiscard]] glm::vec<3, T> ao_unit_or_zero(const glm::vec<3, T>& n) noexcept {
-    const T len = glm::length(n);
-    if (!(len > T(0)) || !std::isfinite(len)) return glm::vec<3, T>(0);
-    return n / len;
-}
 
 /// Draws `count` samples of pass `key.pass` at point `p` with unit normal `n` and adds them to `stats`.
 /// `distances`: ask for the nearest hit (z statistics, falloff); else any-hit visibility. Returns rays traced.

@@ -45,6 +45,18 @@ struct ao_sampling_settings {
     double origin_offset = -1;
 };
 
+/// How the AO filter's Gaussian is evaluated.
+enum class ao_filter_kernel {
+    /// The core's guided separable Gaussian (filter.hpp), a horizontal then a vertical pass over the AO and
+    /// each bent-normal component; the normal threshold is a hard test. Fast. Default.
+    separable,
+    /// A direct 2D Gaussian over each pixel's whole window, as in the authors' code: (2r + 1)² taps per
+    /// pixel instead of 2(2r + 1), cut where the exponent exceeds truncation²/2 (the authors' μ²Ω*²r² ≤ 2 at
+    /// the default truncation). The only kernel that applies `normal_angle_term` and `reject_beyond_z_min`,
+    /// whose weights depend on the centre and the neighbour together and so do not separate.
+    direct,
+};
+
 /// Constants of the axis-aligned AO filter (FORMULAS.md §4.2, §8.3: Mehta et al. 2013 and the authors' code).
 template <class T = float>
 struct ao_filter_settings {
@@ -69,6 +81,16 @@ struct ao_filter_settings {
     /// like its neighbours (the AO counterpart of the shadows' slope spreading, FORMULAS.md §1.12, run by the
     /// core's aaf::spread_slopes); [0, 1024], 0 = off (such pixels stay unfiltered with their initial samples).
     std::uint32_t spread_radius = 10;
+    /// Separable (default) or direct 2D evaluation of the Gaussian (ao_filter_kernel).
+    ao_filter_kernel kernel = ao_filter_kernel::separable;
+    /// The authors' per-neighbour bandwidth Ω_h(1 + c·θ)/z_min, θ the angle between the centre's and the
+    /// neighbour's normals in radians: a neighbour on a curved surface gets a narrower weight (the Gaussian's
+    /// exponent times (1 + cθ)²; the hard `normal_threshold_degrees` test still applies). c: [0, 1e6], authors
+    /// 50, aaf 0 (off; DEVIATIONS.md occlusion row 2, measured there). c > 0 needs kernel = direct.
+    T normal_angle_term = 0;
+    /// The authors' rejection of neighbours whose world distance from the centre is ≥ the centre's z_min
+    /// (clamped by min_distance). Default off (DEVIATIONS.md occlusion row 3, measured there); needs kernel = direct.
+    bool reject_beyond_z_min = false;
 };
 
 template <class T>
@@ -111,6 +133,14 @@ void validate(const ao_filter_settings<T>& s, const char* function = "validate")
             "must be <= 1024 (got " + std::to_string(s.spread_radius) + ")");
     require(s.space == offset_space::image || s.space == offset_space::tangent_plane, function, "settings.space",
             "must be offset_space::image or ::tangent_plane");
+    require(s.kernel == ao_filter_kernel::separable || s.kernel == ao_filter_kernel::direct, function, "settings.kernel",
+            "must be ao_filter_kernel::separable or ::direct");
+    require(std::isfinite(s.normal_angle_term) && s.normal_angle_term >= T(0) && s.normal_angle_term <= T(1e6), function,
+            "settings.normal_angle_term", "must be in [0, 1e6] (got " + std::to_string(s.normal_angle_term) + ")");
+    require(s.kernel == ao_filter_kernel::direct || (s.normal_angle_term == T(0) && !s.reject_beyond_z_min), function,
+            "settings.kernel",
+            "must be ao_filter_kernel::direct when normal_angle_term > 0 or reject_beyond_z_min is set (the separable "
+            "filter cannot weight a neighbour by its centre and itself together)");
 }
 
 }  // namespace v0

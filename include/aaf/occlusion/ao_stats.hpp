@@ -42,6 +42,26 @@ template <class T>
 /// normalize(∫ V ω cos θ dω), estimated as normalize(Σ c_i ω_i) with the same c_i under either density.
 /// (FORMULAS.md §4.1 calls the uniform-sampled bent normal "the unweighted mean"; aaf weights it, so the
 /// two densities converge to one bent normal: DEVIATIONS.md, occlusion row 1.)
+namespace detail {
+
+/// The unit vector along n (a G-buffer or mesh normal, a bent-normal sum), or a zero vector when it has none:
+/// n is zero or has a non-finite component (docs/EXTREMES.md). Any other n, however short or long, has a
+/// direction: it is divided by its largest component first, so that its length neither under- nor overflows.
+/// (Dividing by |n| directly failed twice under fuzz_occlusion: for components near 1e-23 in float the squares
+/// are denormal and |n| was 20 % off, so a fully occluded pixel's bent normal, its normal, had length 0.85;
+/// and a bent-normal sum of falloff weights near 1e-24 gave bent normals of length 0.96–1.03, or below 1e-23
+/// |n| = 0 lost the direction altogether.)
+template <class T>
+[[nodiscard]] glm::vec<3, T> ao_unit_or_zero(const glm::vec<3, T>& n) noexcept {
+    if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) return glm::vec<3, T>(0);
+    const T largest = std::max({std::abs(n.x), std::abs(n.y), std::abs(n.z)});
+    if (!(largest > T(0))) return glm::vec<3, T>(0);
+    const glm::vec<3, T> scaled = n / largest;  // largest component ±1: its length is in [1, √3]
+    return scaled / glm::length(scaled);
+}
+
+}  // namespace detail
+
 template <class T = float>
 struct ao_stats {
     T visible_sum = 0;                              ///< Σ c_i (see above)
@@ -83,8 +103,8 @@ struct ao_stats {
     /// The unit bent normal; `normal` when no unoccluded direction was seen (fully occluded, or no sample),
     /// so a lookup with it is always defined.
     [[nodiscard]] glm::vec<3, T> bent_normal(const glm::vec<3, T>& normal) const noexcept {
-        const T len = glm::length(bent_sum);
-        return len > T(0) && std::isfinite(len) ? bent_sum / len : normal;
+        const glm::vec<3, T> b = detail::ao_unit_or_zero(bent_sum);
+        return b == glm::vec<3, T>(0) ? normal : b;
     }
     [[nodiscard]] constexpr bool has_hit() const noexcept { return hits > 0; }
 };

@@ -13,6 +13,8 @@
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
+#include "ao_stats.hpp"
+
 namespace aaf {
 inline namespace v0 {
 
@@ -88,8 +90,8 @@ struct sky_model {
 
     /// The unit zenith direction (+y for a zero or non-finite `up`).
     [[nodiscard]] glm::vec<3, T> axis() const noexcept {
-        const T len = glm::length(up);
-        return len > T(0) && std::isfinite(len) ? up / len : glm::vec<3, T>(0, 1, 0);
+        const glm::vec<3, T> u = detail::ao_unit_or_zero(up);
+        return u != glm::vec<3, T>(0) ? u : glm::vec<3, T>(0, 1, 0);
     }
 
     /// The sky's 9 coefficients in closed form: a constant a projects to L00 = 2√π a; a term b (ω·up) to

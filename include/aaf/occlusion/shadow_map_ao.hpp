@@ -42,6 +42,7 @@
 #include "../shadow_maps/depth_map.hpp"
 #include "../shadow_maps/light_view.hpp"
 #include "../shadow_maps/render_depth_map.hpp"
+#include "ao_stats.hpp"
 
 namespace aaf {
 inline namespace v0 {
@@ -157,8 +158,8 @@ shadow_map_ao_stats shadow_map_ao(const gbuffer<T, Ids>& gb, const Tracer& trace
             visibility(x, y) = wsum > T(0) ? lit(x, y) / wsum : T(1);
             if (bent.empty()) continue;
             const glm::vec<3, T> b = bent_sum(x, y), n = gb.normals(x, y);
-            const T len = glm::length(b);
-            bent(x, y) = len > T(0) && std::isfinite(len) ? b / len : (detail::finite3(n) ? n : glm::vec<3, T>(0));
+            const glm::vec<3, T> u = detail::ao_unit_or_zero(b);
+            bent(x, y) = u != glm::vec<3, T>(0) ? u : (detail::finite3(n) ? n : glm::vec<3, T>(0));
         }
     return stats;
 }
