@@ -21,6 +21,17 @@
 #endif
 #endif
 
+/// AAF_EXTERN_TEMPLATES: the compiled mode. Defined (linking the CMake target aaf::compiled defines it),
+/// the headers declare the stages that do not touch the tracer (render_frame's statistics, formulas,
+/// spreading, footprint and filter, the filter's and spreading's guide combinations, sample generation)
+/// `extern template` for float and double, so that a translation unit compiles only the gathering over its
+/// tracer and links the rest from aaf::compiled (src/compiled_float.cpp, src/compiled_double.cpp).
+/// Undefined (the default), aaf is header-only. Other pixel types and guides are instantiated as usual.
+///
+/// AAF_DETAIL_INSTANTIATE(KEYWORD, function-template-id): an explicit instantiation of one function
+/// template specialisation, declared (`extern`) or defined (no KEYWORD); each header lists its own.
+#define AAF_DETAIL_INSTANTIATE(KEYWORD, ...) KEYWORD template decltype(__VA_ARGS__) __VA_ARGS__;
+
 namespace aaf {
 inline namespace v0 {
 

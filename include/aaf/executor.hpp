@@ -9,8 +9,10 @@
 #include <cstddef>
 #include <exception>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <thread>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -156,6 +158,65 @@ private:
 
 static_assert(executor<sequential_executor>);
 static_assert(executor<thread_pool>);
+
+namespace detail {
+
+template <class Signature>
+class function_ref;
+
+/// A non-owning reference to a callable (a pointer to it and a pointer to a function that calls it): the
+/// pipeline's stages take callbacks through it instead of as template parameters, so that they are compiled
+/// once per pixel type, not once per caller's lambda, progress callback or executor type. The callable must
+/// outlive the reference.
+template <class R, class... Args>
+class function_ref<R(Args...)> {
+public:
+    template <class F>
+        requires(!std::is_same_v<std::remove_cvref_t<F>, function_ref> && std::is_invocable_r_v<R, F&, Args...>)
+    function_ref(F&& f) noexcept  // NOLINT: implicit, like std::function_ref
+        : object_(const_cast<void*>(static_cast<const void*>(std::addressof(f)))), call_(&call<std::remove_reference_t<F>>) {}
+
+    R operator()(Args... args) const { return call_(object_, std::forward<Args>(args)...); }
+
+private:
+    template <class F>
+    static R call(void* f, Args... args) {
+        return static_cast<R>((*static_cast<F*>(f))(std::forward<Args>(args)...));
+    }
+    void* object_;
+    R (*call_)(void*, Args...);
+};
+
+/// A non-owning, type-erased reference to an executor, itself an executor: `parallel_for` hands the body to
+/// the referenced executor's `parallel_for` (as a callable taking (begin, end)). One indirect call per
+/// sub-range, never per pixel. The stages that do not touch the tracer (statistics, formulas, spreading,
+/// filter, outputs) take it, so that a program compiles them once whatever executors it uses, and so that
+/// the compiled mode (AAF_EXTERN_TEMPLATES, aaf::compiled) can hold them for every executor.
+class executor_ref {
+public:
+    template <class E>
+        requires(!std::is_same_v<std::remove_cvref_t<E>, executor_ref>)
+    executor_ref(E& exec) noexcept  // NOLINT: implicit, so that an executor converts where a stage takes one
+        : exec_(const_cast<void*>(static_cast<const void*>(std::addressof(exec)))), run_(&run<E>) {}
+
+    template <class Body>
+    void parallel_for(std::size_t count, Body&& body) const {
+        run_(exec_, count, function_ref<void(std::size_t, std::size_t)>(body));
+    }
+
+private:
+    using body_ref = function_ref<void(std::size_t, std::size_t)>;
+    template <class E>
+    static void run(void* exec, std::size_t count, body_ref body) {
+        static_cast<E*>(exec)->parallel_for(count, [body](std::size_t begin, std::size_t end) { body(begin, end); });
+    }
+    void* exec_;
+    void (*run_)(void*, std::size_t, body_ref);
+};
+
+static_assert(executor<executor_ref>);
+
+}  // namespace detail
 
 }  // namespace v0
 }  // namespace aaf

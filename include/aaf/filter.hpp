@@ -18,6 +18,7 @@
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
+#include "config.hpp"
 #include "executor.hpp"
 #include "guides.hpp"
 #include "image.hpp"
@@ -845,6 +846,80 @@ struct filter_workspace {
     typename detail::workspace_pool<T>::spares_type passes;
 };
 
+namespace detail {
+
+/// filter_visibility's work, compiled once per pixel type and guides whatever the caller's executor
+/// (executor_ref); the compiled mode instantiates it for the common guides (AAF_EXTERN_TEMPLATES).
+template <class T, class G>
+void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> filter_width,
+                            const_image_view<T> pixel_size, image_view<T> output, image_view<T> scratch,
+                            filter_workspace<T>& workspace, const G& g, const filter_settings<T>& s,
+                            const glm::vec<3, T>& light_normal, executor_ref exec) {
+    constexpr const char* fn = "filter_visibility";
+    require_nonempty(fn, "visibility", visibility);
+    const std::size_t w = visibility.width(), h = visibility.height();
+    require_size(fn, "filter_width", filter_width, w, h);
+    require_size(fn, "pixel_size", pixel_size, w, h);
+    require_size(fn, "output", output, w, h);
+    require_size(fn, "scratch", scratch, w, h);
+    require_guides(fn, g, w, h);
+    validate(s, fn);
+    if (output.bytes() == visibility.bytes() || output.bytes() == scratch.bytes() ||
+        scratch.bytes() == visibility.bytes())
+        throw_invalid(fn, "`output`, `scratch` and `visibility` must be distinct buffers");
+    // Tasks are blocks of rows; every pixel's result is independent of how they are split.
+    const std::size_t tasks = (h + filter_rows_per_task - 1) / filter_rows_per_task;
+    const auto row = [h](std::size_t task) { return std::min(task * filter_rows_per_task, h); };
+    // Each row's largest kernel radius, from the horizontal pass. Not cleared: the horizontal pass writes
+    // every element (and, in image space, every element of `decay`) before the vertical pass reads it.
+    if (workspace.row_reach.size() < h) workspace.row_reach.resize(h);
+    std::size_t* row_reach = workspace.row_reach.data();
+    workspace_pool<T> pool(w, workspace.passes);
+    if (s.space == offset_space::tangent_plane) {
+        if constexpr (!G::has_positions || !G::has_normals) {
+            throw_invalid(fn, "`settings.space` is tangent_plane but `guides.positions` or `guides.normals` is absent");
+        } else {
+            constexpr auto space = offset_space::tangent_plane;
+            exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
+                pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, space, T>(visibility, scratch, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
+            });
+            exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
+                pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, space, T>(scratch, output, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
+            });
+            return;
+        }
+    }
+    if (s.space == offset_space::light_plane) {
+        if constexpr (!G::has_positions) {
+            throw_invalid(fn, "`settings.space` is light_plane but `guides.positions` is absent");
+        } else {
+            const T len = glm::length(light_normal);
+            if (!(len > T(0)) || !std::isfinite(len)) throw_invalid(fn, "`light_normal` must be a finite non-zero vector");
+            const glm::vec<3, T> n = light_normal / len;
+            exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
+                pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
+            });
+            exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
+                pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
+            });
+            return;
+        }
+    }
+    if (workspace.decay.size() < w * h) workspace.decay.resize(w * h);
+    T* decay = workspace.decay.data();
+    // Image space reads no positions: the passes get the guides without them, so that callers with and
+    // without positions (render_frame's light-plane and image-space branches) share one compiled pass.
+    const guides<decltype(G::normals), decltype(G::ids), no_guide> gi{g.normals, g.ids, {}};
+    exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
+        pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, gi, light_normal, s, row(b), row(e), row_reach, decay, ws); });
+    });
+    exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
+        pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size, gi, light_normal, s, row(b), row(e), row_reach, decay, ws); });
+    });
+}
+
+}  // namespace detail
+
 /// Filters `visibility` into `output` with the separable guided Gaussian: a horizontal pass into
 /// `scratch`, then a vertical pass into `output`, each with the centre pixel's width (as the authors).
 ///
@@ -868,64 +943,8 @@ void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
                        std::type_identity_t<image_view<T>> scratch, filter_workspace<T>& workspace, const G& g = {},
                        const std::type_identity_t<filter_settings<T>>& s = {},
                        const std::type_identity_t<glm::vec<3, T>>& light_normal = {0, 1, 0}, Exec&& exec = {}) {
-    constexpr const char* fn = "filter_visibility";
-    detail::require_nonempty(fn, "visibility", visibility);
-    const std::size_t w = visibility.width(), h = visibility.height();
-    detail::require_size(fn, "filter_width", filter_width, w, h);
-    detail::require_size(fn, "pixel_size", pixel_size, w, h);
-    detail::require_size(fn, "output", output, w, h);
-    detail::require_size(fn, "scratch", scratch, w, h);
-    detail::require_guides(fn, g, w, h);
-    validate(s, fn);
-    if (output.bytes() == visibility.bytes() || output.bytes() == scratch.bytes() ||
-        scratch.bytes() == visibility.bytes())
-        detail::throw_invalid(fn, "`output`, `scratch` and `visibility` must be distinct buffers");
-    // Tasks are blocks of rows; every pixel's result is independent of how they are split.
-    const std::size_t tasks = (h + detail::filter_rows_per_task - 1) / detail::filter_rows_per_task;
-    const auto row = [h](std::size_t task) { return std::min(task * detail::filter_rows_per_task, h); };
-    // Each row's largest kernel radius, from the horizontal pass. Not cleared: the horizontal pass writes
-    // every element (and, in image space, every element of `decay`) before the vertical pass reads it.
-    if (workspace.row_reach.size() < h) workspace.row_reach.resize(h);
-    std::size_t* row_reach = workspace.row_reach.data();
-    detail::workspace_pool<T> pool(w, workspace.passes);
-    if (s.space == offset_space::tangent_plane) {
-        if constexpr (!G::has_positions || !G::has_normals) {
-            detail::throw_invalid(fn, "`settings.space` is tangent_plane but `guides.positions` or `guides.normals` is absent");
-        } else {
-            constexpr auto space = offset_space::tangent_plane;
-            exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::horizontal, space, T>(visibility, scratch, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
-            });
-            exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::vertical, space, T>(scratch, output, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
-            });
-            return;
-        }
-    }
-    if (s.space == offset_space::light_plane) {
-        if constexpr (!G::has_positions) {
-            detail::throw_invalid(fn, "`settings.space` is light_plane but `guides.positions` is absent");
-        } else {
-            const T len = glm::length(light_normal);
-            if (!(len > T(0)) || !std::isfinite(len)) detail::throw_invalid(fn, "`light_normal` must be a finite non-zero vector");
-            const glm::vec<3, T> n = light_normal / len;
-            exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
-            });
-            exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
-            });
-            return;
-        }
-    }
-    if (workspace.decay.size() < w * h) workspace.decay.resize(w * h);
-    T* decay = workspace.decay.data();
-    exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-        pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach, decay, ws); });
-    });
-    exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-        pool.lend([&](auto& ws) { detail::filter_pass<detail::pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach, decay, ws); });
-    });
+    detail::filter_visibility_impl<T, G>(visibility, filter_width, pixel_size, output, scratch, workspace, g, s, light_normal,
+                                         detail::executor_ref(exec));
 }
 
 /// The same with working memory allocated for this call and freed on return (no global or thread-local
@@ -993,6 +1012,28 @@ void spread_pass(const_image_view<slope_pair<T>> src, image_view<slope_pair<T>> 
     }
 }
 
+/// spread_slopes's work, compiled once per pixel type and IDs guide whatever the caller's executor.
+template <class T, class G>
+void spread_slopes_impl(image_view<slope_pair<T>> slopes, image_view<slope_pair<T>> scratch, std::uint32_t radius,
+                        const G& g, executor_ref exec) {
+    constexpr const char* fn = "spread_slopes";
+    require_nonempty(fn, "slopes", slopes);
+    const std::size_t w = slopes.width(), h = slopes.height();
+    require_size(fn, "scratch", scratch, w, h);
+    if constexpr (G::has_ids) require_size(fn, "guides.ids", g.ids, w, h);
+    if (radius > 1024) throw_invalid(fn, "`radius` must be <= 1024 (got " + std::to_string(radius) + ")");
+    if (scratch.bytes() == slopes.bytes()) throw_invalid(fn, "`scratch` must not alias `slopes`");
+    if (radius == 0) return;
+    // Horizontal: scratch = row-window max/min over occluded pixels. Vertical reads scratch, writes slopes,
+    // skipping occluded pixels (whose values in `slopes` are still the originals it needs to keep).
+    exec.parallel_for(h, [&](std::size_t b, std::size_t e) {
+        spread_pass<pass_direction::horizontal, T>(slopes, scratch, slopes, g, radius, b, e);
+    });
+    exec.parallel_for(h, [&](std::size_t b, std::size_t e) {
+        spread_pass<pass_direction::vertical, T>(scratch, slopes, slopes, g, radius, b, e);
+    });
+}
+
 }  // namespace detail
 
 /// Slope spreading (FORMULAS.md §1.12, the authors' pass): every pixel with no occluder of its own takes
@@ -1004,23 +1045,33 @@ template <class T, class G = guides<>, class Exec = sequential_executor>
 void spread_slopes(image_view<slope_pair<T>> slopes, image_view<slope_pair<T>> scratch, std::uint32_t radius,
                    const G& g = {}, Exec&& exec = {}) {
     static_assert(detail::is_guides<G>::value, "aaf::spread_slopes: `g` must be an aaf::guides<...>");
-    constexpr const char* fn = "spread_slopes";
-    detail::require_nonempty(fn, "slopes", slopes);
-    const std::size_t w = slopes.width(), h = slopes.height();
-    detail::require_size(fn, "scratch", scratch, w, h);
-    if constexpr (G::has_ids) detail::require_size(fn, "guides.ids", g.ids, w, h);
-    if (radius > 1024) detail::throw_invalid(fn, "`radius` must be <= 1024 (got " + std::to_string(radius) + ")");
-    if (scratch.bytes() == slopes.bytes()) detail::throw_invalid(fn, "`scratch` must not alias `slopes`");
-    if (radius == 0) return;
-    // Horizontal: scratch = row-window max/min over occluded pixels. Vertical reads scratch, writes slopes,
-    // skipping occluded pixels (whose values in `slopes` are still the originals it needs to keep).
-    exec.parallel_for(h, [&](std::size_t b, std::size_t e) {
-        detail::spread_pass<detail::pass_direction::horizontal, T>(slopes, scratch, slopes, g, radius, b, e);
-    });
-    exec.parallel_for(h, [&](std::size_t b, std::size_t e) {
-        detail::spread_pass<detail::pass_direction::vertical, T>(scratch, slopes, slopes, g, radius, b, e);
-    });
+    // Only the IDs matter: every guides type with (or without) them shares one compiled pass.
+    using ids_only = guides<no_guide, decltype(G::ids), no_guide>;
+    detail::spread_slopes_impl<T, ids_only>(slopes, scratch, radius, ids_only{{}, g.ids, {}}, detail::executor_ref(exec));
 }
+
+// The compiled mode's instantiations (config.hpp: AAF_EXTERN_TEMPLATES): every combination of the normals,
+// IDs and positions guides as views (a caller's other view types are instantiated as usual), and the
+// spreading with and without IDs. KEYWORD is `extern` or nothing, T float or double.
+namespace detail {
+template <class T>
+using vector_guide = const_image_view<glm::vec<3, T>>;  // normals or positions
+using id_guide = const_image_view<std::uint32_t>;
+}  // namespace detail
+#define AAF_DETAIL_FILTER_INSTANTIATIONS_IDS(KEYWORD, T, N, I)                                                   \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::filter_visibility_impl<T, guides<N, I, no_guide>>)                  \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::filter_visibility_impl<T, guides<N, I, detail::vector_guide<T>>>)
+#define AAF_DETAIL_FILTER_INSTANTIATIONS(KEYWORD, T)                                                            \
+    AAF_DETAIL_FILTER_INSTANTIATIONS_IDS(KEYWORD, T, no_guide, no_guide)                                        \
+    AAF_DETAIL_FILTER_INSTANTIATIONS_IDS(KEYWORD, T, no_guide, detail::id_guide)                                \
+    AAF_DETAIL_FILTER_INSTANTIATIONS_IDS(KEYWORD, T, detail::vector_guide<T>, no_guide)                         \
+    AAF_DETAIL_FILTER_INSTANTIATIONS_IDS(KEYWORD, T, detail::vector_guide<T>, detail::id_guide)                 \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::spread_slopes_impl<T, guides<>>)                                    \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::spread_slopes_impl<T, guides<no_guide, detail::id_guide, no_guide>>)
+#ifdef AAF_EXTERN_TEMPLATES
+AAF_DETAIL_FILTER_INSTANTIATIONS(extern, float)
+AAF_DETAIL_FILTER_INSTANTIATIONS(extern, double)
+#endif
 
 }  // namespace v0
 }  // namespace aaf

@@ -52,27 +52,24 @@ template <class T>
 
 }  // namespace detail
 
-/// Writes each pixel's footprint for the filter's β/d (filter_settings::footprint): `camera` copies
-/// `pixel_size`; `surface_area` is √(s_x s_y) and `surface_max` is max(s_x, s_y), with s_x, s_y the world
-/// distances per pixel step along the image axes on the pixel's own surface (neighbours with a finite
-/// position and a normal within `normal_threshold_degrees`), each at least `pixel_size` (a surface is
-/// never seen more than face-on) and `pixel_size` itself where no neighbour qualifies. Pixels with a
-/// non-finite position or normal, or a pixel size that is not finite and positive, are copied.
-template <class T, class Exec = sequential_executor>
-void surface_footprint(std::type_identity_t<const_image_view<glm::vec<3, T>>> positions,
-                       std::type_identity_t<const_image_view<glm::vec<3, T>>> normals, std::type_identity_t<const_image_view<T>> pixel_size,
-                       image_view<T> output, pixel_footprint mode, T normal_threshold_degrees = T(20), Exec&& exec = {}) {
+namespace detail {
+
+/// surface_footprint's work, compiled once per pixel type whatever the caller's executor.
+template <class T>
+void surface_footprint_impl(const_image_view<glm::vec<3, T>> positions, const_image_view<glm::vec<3, T>> normals,
+                            const_image_view<T> pixel_size, image_view<T> output, pixel_footprint mode,
+                            T normal_threshold_degrees, executor_ref exec) {
     constexpr const char* fn = "surface_footprint";
-    detail::require_nonempty(fn, "positions", positions);
+    require_nonempty(fn, "positions", positions);
     const std::size_t w = positions.width(), h = positions.height();
-    detail::require_size(fn, "normals", normals, w, h);
-    detail::require_size(fn, "pixel_size", pixel_size, w, h);
-    detail::require_size(fn, "output", output, w, h);
+    require_size(fn, "normals", normals, w, h);
+    require_size(fn, "pixel_size", pixel_size, w, h);
+    require_size(fn, "output", output, w, h);
     if (!(normal_threshold_degrees > T(0) && normal_threshold_degrees <= T(180)))
-        detail::throw_invalid(fn, "`normal_threshold_degrees` must be in (0, 180] (got " + std::to_string(normal_threshold_degrees) + ")");
+        throw_invalid(fn, "`normal_threshold_degrees` must be in (0, 180] (got " + std::to_string(normal_threshold_degrees) + ")");
     if (mode != pixel_footprint::camera && mode != pixel_footprint::surface_area && mode != pixel_footprint::surface_max)
-        detail::throw_invalid(fn, "`mode` is not a pixel_footprint");
-    if (output.bytes() == pixel_size.bytes()) detail::throw_invalid(fn, "`output` must not alias `pixel_size`");
+        throw_invalid(fn, "`mode` is not a pixel_footprint");
+    if (output.bytes() == pixel_size.bytes()) throw_invalid(fn, "`output` must not alias `pixel_size`");
     const T cos_threshold = std::cos(normal_threshold_degrees * T(3.14159265358979323846) / T(180));
     exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
         for (std::size_t y = y0; y < y1; ++y)
@@ -83,13 +80,36 @@ void surface_footprint(std::type_identity_t<const_image_view<glm::vec<3, T>>> po
                     output(x, y) = d;
                     continue;
                 }
-                const T sx = std::max(detail::surface_step(positions, normals, x, y, true, cos_threshold), d);
-                const T sy = std::max(detail::surface_step(positions, normals, x, y, false, cos_threshold), d);
+                const T sx = std::max(surface_step(positions, normals, x, y, true, cos_threshold), d);
+                const T sy = std::max(surface_step(positions, normals, x, y, false, cos_threshold), d);
                 const T f = mode == pixel_footprint::surface_area ? std::sqrt(sx * sy) : std::max(sx, sy);
                 output(x, y) = std::isfinite(f) ? f : d;
             }
     });
 }
+
+}  // namespace detail
+
+/// Writes each pixel's footprint for the filter's β/d (filter_settings::footprint): `camera` copies
+/// `pixel_size`; `surface_area` is √(s_x s_y) and `surface_max` is max(s_x, s_y), with s_x, s_y the world
+/// distances per pixel step along the image axes on the pixel's own surface (neighbours with a finite
+/// position and a normal within `normal_threshold_degrees`), each at least `pixel_size` (a surface is
+/// never seen more than face-on) and `pixel_size` itself where no neighbour qualifies. Pixels with a
+/// non-finite position or normal, or a pixel size that is not finite and positive, are copied.
+template <class T, class Exec = sequential_executor>
+void surface_footprint(std::type_identity_t<const_image_view<glm::vec<3, T>>> positions,
+                       std::type_identity_t<const_image_view<glm::vec<3, T>>> normals, std::type_identity_t<const_image_view<T>> pixel_size,
+                       image_view<T> output, pixel_footprint mode, T normal_threshold_degrees = T(20), Exec&& exec = {}) {
+    detail::surface_footprint_impl<T>(positions, normals, pixel_size, output, mode, normal_threshold_degrees,
+                                      detail::executor_ref(exec));
+}
+
+// The compiled mode's instantiations (config.hpp: AAF_EXTERN_TEMPLATES).
+#define AAF_DETAIL_FOOTPRINT_INSTANTIATIONS(KEYWORD, T) AAF_DETAIL_INSTANTIATE(KEYWORD, detail::surface_footprint_impl<T>)
+#ifdef AAF_EXTERN_TEMPLATES
+AAF_DETAIL_FOOTPRINT_INSTANTIATIONS(extern, float)
+AAF_DETAIL_FOOTPRINT_INSTANTIATIONS(extern, double)
+#endif
 
 }  // namespace v0
 }  // namespace aaf

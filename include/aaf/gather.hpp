@@ -16,6 +16,7 @@
 #include <glm/vec3.hpp>
 
 #include "area_light.hpp"
+#include "config.hpp"
 #include "executor.hpp"
 #include "guides.hpp"
 #include "image_view.hpp"
@@ -199,10 +200,11 @@ std::uint64_t flush_batch(const Tracer& tracer, pixel_batch<T>& batch) {
 
 namespace detail {
 
-template <shadow_query Query, class T, class Ids, class Tracer, class Exec>
-std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
-                          const sampling_settings& s, std::uint32_t pass, std::uint32_t samples_per_pixel,
-                          image_view<occlusion_stats<T>> stats, const_image_view<std::uint32_t> sample_counts, Exec&& exec) {
+/// A gathering pass's checks of its inputs (independent of the tracer: compiled once per G-buffer type).
+template <class T, class Ids>
+void require_gather_inputs(const char* fn, const gbuffer<T, Ids>& gb, const area_light<T>& light, const sampling_settings& s,
+                           std::uint32_t samples_per_pixel, image_view<occlusion_stats<T>> stats,
+                           const_image_view<std::uint32_t> sample_counts) {
     require_gbuffer(fn, gb);
     require_light(fn, light);
     validate(s, fn);
@@ -211,6 +213,18 @@ std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_
     require_size_or_empty(fn, "sample_counts", sample_counts, w, h);
     if (samples_per_pixel > s.max_samples && sample_counts.empty())
         throw_invalid(fn, "`samples_per_pixel` exceeds settings.max_samples");
+}
+
+/// The one part of a frame compiled per tracer type: the rows' samples traced by `tracer`. Everything
+/// that does not call the tracer (checks, sample generation and segments: prepare_pixel) is compiled per
+/// pixel type only, and the executor is taken by reference (executor_ref).
+template <shadow_query Query, class T, class Ids, class Tracer>
+std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
+                          const sampling_settings& s, std::uint32_t pass, std::uint32_t samples_per_pixel,
+                          image_view<occlusion_stats<T>> stats, const_image_view<std::uint32_t> sample_counts,
+                          executor_ref exec) {
+    require_gather_inputs(fn, gb, light, s, samples_per_pixel, stats, sample_counts);
+    const std::size_t w = gb.width(), h = gb.height();
     std::atomic<std::uint64_t> rays{0};
     const light_sample_frame<T> frame(light, s.weighting);
     // A tracer with a batched form of this query gets whole pixels' segments, several pixels (of a row or
@@ -252,7 +266,7 @@ std::uint64_t gather_occlusion(const gbuffer<T, Ids>& gb, const area_light<T>& l
     static_assert(check_tracer<Tracer, T>());  // a message naming the member and the reason (tracer.hpp)
     if constexpr (occlusion_tracer<Tracer, T>)
         return detail::gather_rows<shadow_query::distances>("gather_occlusion", gb, light, tracer, s, pass, samples_per_pixel,
-                                                             stats, sample_counts, exec);
+                                                             stats, sample_counts, detail::executor_ref(exec));
     else
         return 0;
 }
@@ -269,10 +283,21 @@ std::uint64_t gather_visibility(const gbuffer<T, Ids>& gb, const area_light<T>& 
     static_assert(check_tracer<Tracer, T>());  // a message naming the member and the reason (tracer.hpp)
     if constexpr (occlusion_tracer<Tracer, T>)
         return detail::gather_rows<shadow_query::visibility>("gather_visibility", gb, light, tracer, s, pass, samples_per_pixel,
-                                                             stats, sample_counts, exec);
+                                                             stats, sample_counts, detail::executor_ref(exec));
     else
         return 0;
 }
+
+// The compiled mode's instantiations (config.hpp: AAF_EXTERN_TEMPLATES): what a gathering pass does
+// besides calling the tracer.
+#define AAF_DETAIL_GATHER_INSTANTIATIONS(KEYWORD, T)                                                            \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::prepare_pixel<T>)                                                   \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::require_gather_inputs<T, no_guide>)                                 \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::require_gather_inputs<T, const_image_view<std::uint32_t>>)
+#ifdef AAF_EXTERN_TEMPLATES
+AAF_DETAIL_GATHER_INSTANTIATIONS(extern, float)
+AAF_DETAIL_GATHER_INSTANTIATIONS(extern, double)
+#endif
 
 }  // namespace v0
 }  // namespace aaf

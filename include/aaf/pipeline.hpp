@@ -16,6 +16,7 @@
 #include <type_traits>
 
 #include "area_light.hpp"
+#include "config.hpp"
 #include "executor.hpp"
 #include "filter.hpp"
 #include "footprint.hpp"
@@ -122,38 +123,32 @@ inline double ms_since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace detail
 
-/// Renders one frame's shadow from `light` over the G-buffer `gb` with `tracer`.
-///
-/// * Pixels without a surface (non-finite position or normal) get visibility 1; pixels whose whole light
-///   is below their horizon or behind a one-sided light get 0. No such pixel feeds its neighbours. The
-///   report counts each kind, and report.diagnose() names the likely mistake when a whole frame is dark
-///   (light edges swapped, normals facing away from the camera).
-/// * A zero normal is an orientation-less receiver (hair, particles): it faces the light's centre.
-/// * A surface pixel whose pixel size is not a positive finite world length (0, negative, NaN, ±∞) cannot
-///   be sized by the formulas: it gets max_samples and is not filtered (its own Monte Carlo estimate), and
-///   is counted (report.pixels_bad_pixel_size). A size in pixels instead of world units is not detectable:
-///   formulas.hpp's pinhole_pixel_size gives world units.
-/// * `progress(fraction)` is called between stages; returning false cancels the frame before any output
-///   is written (report.cancelled).
-/// * Deterministic: the same inputs and `settings.sampling.frame_seed` give the same image on any executor.
-/// * Tiles: with `gb.region` placing the buffers in the frame, and buffers that cover a tile plus
-///   region_halo(settings) pixels on every side that is not a frame edge (plan_region), the tile's pixels
-///   are bit-identical to the same pixels of a full-frame render. The halo's own outputs are not.
-/// Throws aaf::invalid_argument, before writing anything, for mismatched buffers or invalid settings.
-template <class T, class Ids, class Tracer, class Exec = sequential_executor, class Progress = no_progress>
-frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
-                          const frame_outputs<T>& out, frame_workspace<T>& ws, const frame_settings<T>& settings = {},
-                          Exec&& exec = {}, Progress&& progress = {}) {
-    static_assert(check_tracer<Tracer, T>());  // a message naming the member and the reason (tracer.hpp)
+namespace detail {
+
+/// One gathering pass of render_frame over the caller's tracer (gather_occlusion for
+/// shadow_query::distances, gather_visibility for shadow_query::visibility) into `stats`, `sample_counts`
+/// as theirs; returns the rays traced.
+template <class T>
+using frame_gather = function_ref<std::uint64_t(shadow_query query, std::uint32_t pass, std::uint32_t samples_per_pixel,
+                                                image_view<occlusion_stats<T>> stats,
+                                                const_image_view<std::uint32_t> sample_counts)>;
+
+/// render_frame's stages. Only `gather` calls the tracer, so all of this is compiled once per pixel type and
+/// G-buffer type, whatever the tracer, executor and progress callback (the compiled mode, aaf::compiled,
+/// holds it for float and double, with and without IDs).
+template <class T, class Ids>
+frame_report render_frame_stages(const gbuffer<T, Ids>& gb, const area_light<T>& light, frame_gather<T> gather,
+                                 const frame_outputs<T>& out, frame_workspace<T>& ws, const frame_settings<T>& settings,
+                                 executor_ref exec, function_ref<bool(double)> progress) {
     constexpr const char* fn = "render_frame";
     using clock = std::chrono::steady_clock;
-    detail::require_gbuffer(fn, gb);
-    detail::require_light(fn, light);
+    require_gbuffer(fn, gb);
+    require_light(fn, light);
     validate(settings, fn);
     const std::size_t w = gb.width(), h = gb.height();
-    detail::require_size(fn, "outputs.visibility", out.visibility, w, h);
-    detail::require_size_or_empty(fn, "outputs.shaded", out.shaded, w, h);
-    detail::require_size_or_empty(fn, "outputs.unshadowed", out.unshadowed, w, h);
+    require_size(fn, "outputs.visibility", out.visibility, w, h);
+    require_size_or_empty(fn, "outputs.shaded", out.shaded, w, h);
+    require_size_or_empty(fn, "outputs.unshadowed", out.unshadowed, w, h);
 
     frame_report report;
     const auto t_frame = clock::now();
@@ -166,8 +161,8 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
 
     // 1. Initial samples.
     auto t0 = clock::now();
-    report.initial_rays = gather_occlusion(gb, light, tracer, ss, 0, ss.initial_samples, ws.stats.view(), {}, exec);
-    report.initial_ms = detail::ms_since(t0);
+    report.initial_rays = gather(shadow_query::distances, 0, ss.initial_samples, ws.stats.view(), {});
+    report.initial_ms = ms_since(t0);
     if (!progress(0.4)) return report.cancelled = true, report;
 
     // 2. Slopes, spread to unoccluded neighbours (same object when IDs are given).
@@ -182,7 +177,7 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
     }();
     if (settings.filter.spread_slopes)
         spread_slopes<T>(ws.slopes.view(), ws.slope_scratch.view(), settings.filter.spread_radius, id_guides, exec);
-    report.formulas_ms = detail::ms_since(t0);
+    report.formulas_ms = ms_since(t0);
 
     // 3. Adaptive pass: n from the formulas, capped at max_samples in total.
     if (ss.adaptive && ss.max_samples > ss.initial_samples) {
@@ -214,11 +209,9 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
         });
         if (ss.adaptive_query == shadow_query::visibility) {
             // The paper's pass: visibility only (any-hit rays when the tracer has them); β keeps the first pass's slopes.
-            report.adaptive_rays = gather_visibility(gb, light, tracer, ss, 1, 0, ws.stats.view(),
-                                                     ws.adaptive_samples.cview(), exec);
+            report.adaptive_rays = gather(shadow_query::visibility, 1, 0, ws.stats.view(), ws.adaptive_samples.cview());
         } else {
-            report.adaptive_rays = gather_occlusion(gb, light, tracer, ss, 1, 0, ws.stats.view(),
-                                                    ws.adaptive_samples.cview(), exec);
+            report.adaptive_rays = gather(shadow_query::distances, 1, 0, ws.stats.view(), ws.adaptive_samples.cview());
             // Pixels that now have occluders of their own use their own slopes; the others keep the spread ones.
             exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
                 for (std::size_t y = y0; y < y1; ++y)
@@ -226,7 +219,7 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
                         if (ws.stats(x, y).has_occluder()) ws.slopes(x, y) = slopes(ws.stats(x, y), fs.max_slope);
             });
         }
-        report.adaptive_ms = detail::ms_since(t0);
+        report.adaptive_ms = ms_since(t0);
     }
     if (!progress(0.8)) return report.cancelled = true, report;
 
@@ -241,7 +234,7 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
                 ws.raw_visibility(x, y) = ws.stats(x, y).visibility();
             }
     });
-    report.formulas_ms += detail::ms_since(t0);
+    report.formulas_ms += ms_since(t0);
 
     // 5. Filter, with normals always and IDs when the G-buffer has them.
     t0 = clock::now();
@@ -262,7 +255,7 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
         filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), footprint, ws.filtered.view(),
                              ws.scratch.view(), ws.filter, g, settings.filter, light.normal(), exec);
     }
-    report.filter_ms = detail::ms_since(t0);
+    report.filter_ms = ms_since(t0);
     if (!progress(0.95)) return report.cancelled = true, report;
 
     // 6. Outputs, and the counts of the report.
@@ -293,7 +286,7 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
                     T e = T(0);
                     if (!out.unshadowed.empty()) e = out.unshadowed(x, y);
                     else if (surface)
-                        e = unshadowed_irradiance(light, p, detail::receiver_normal(n, p, light_center), settings.radiance);
+                        e = unshadowed_irradiance(light, p, receiver_normal(n, p, light_center), settings.radiance);
                     out.shaded(x, y) = v * e;
                 }
             }
@@ -305,10 +298,63 @@ frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light,
     report.pixels_below_horizon = below.load();
     report.pixels_zero_normal = zero_normal.load();
     report.pixels_bad_pixel_size = bad_size.load();
-    report.total_ms = detail::ms_since(t_frame);
+    report.total_ms = ms_since(t_frame);
     progress(1.0);
     return report;
 }
+
+}  // namespace detail
+
+/// Renders one frame's shadow from `light` over the G-buffer `gb` with `tracer`.
+///
+/// * Pixels without a surface (non-finite position or normal) get visibility 1; pixels whose whole light
+///   is below their horizon or behind a one-sided light get 0. No such pixel feeds its neighbours. The
+///   report counts each kind, and report.diagnose() names the likely mistake when a whole frame is dark
+///   (light edges swapped, normals facing away from the camera).
+/// * A zero normal is an orientation-less receiver (hair, particles): it faces the light's centre.
+/// * A surface pixel whose pixel size is not a positive finite world length (0, negative, NaN, ±∞) cannot
+///   be sized by the formulas: it gets max_samples and is not filtered (its own Monte Carlo estimate), and
+///   is counted (report.pixels_bad_pixel_size). A size in pixels instead of world units is not detectable:
+///   formulas.hpp's pinhole_pixel_size gives world units.
+/// * `progress(fraction)` is called between stages; returning false cancels the frame before any output
+///   is written (report.cancelled).
+/// * Deterministic: the same inputs and `settings.sampling.frame_seed` give the same image on any executor.
+/// * Tiles: with `gb.region` placing the buffers in the frame, and buffers that cover a tile plus
+///   region_halo(settings) pixels on every side that is not a frame edge (plan_region), the tile's pixels
+///   are bit-identical to the same pixels of a full-frame render. The halo's own outputs are not.
+/// Throws aaf::invalid_argument, before writing anything, for mismatched buffers or invalid settings.
+template <class T, class Ids, class Tracer, class Exec = sequential_executor, class Progress = no_progress>
+frame_report render_frame(const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
+                          const frame_outputs<T>& out, frame_workspace<T>& ws, const frame_settings<T>& settings = {},
+                          Exec&& exec = {}, Progress&& progress = {}) {
+    static_assert(check_tracer<Tracer, T>());  // a message naming the member and the reason (tracer.hpp)
+    const detail::executor_ref ex(exec);
+    const sampling_settings& ss = settings.sampling;
+    // The one tracer-dependent part: the gathering passes (gather_occlusion / gather_visibility).
+    const auto gather = [&](shadow_query query, std::uint32_t pass, std::uint32_t samples_per_pixel,
+                            image_view<occlusion_stats<T>> stats, const_image_view<std::uint32_t> sample_counts) -> std::uint64_t {
+        if constexpr (occlusion_tracer<Tracer, T>) {
+            if (query == shadow_query::visibility)
+                return detail::gather_rows<shadow_query::visibility>("gather_visibility", gb, light, tracer, ss, pass,
+                                                                     samples_per_pixel, stats, sample_counts, ex);
+            return detail::gather_rows<shadow_query::distances>("gather_occlusion", gb, light, tracer, ss, pass,
+                                                                samples_per_pixel, stats, sample_counts, ex);
+        } else {
+            return 0;
+        }
+    };
+    return detail::render_frame_stages<T, Ids>(gb, light, gather, out, ws, settings, ex, progress);
+}
+
+// The compiled mode's instantiations (config.hpp: AAF_EXTERN_TEMPLATES): every stage of render_frame but
+// the gathering, for G-buffers with and without IDs.
+#define AAF_DETAIL_PIPELINE_INSTANTIATIONS(KEYWORD, T)                                                          \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::render_frame_stages<T, no_guide>)                                   \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::render_frame_stages<T, const_image_view<std::uint32_t>>)
+#ifdef AAF_EXTERN_TEMPLATES
+AAF_DETAIL_PIPELINE_INSTANTIATIONS(extern, float)
+AAF_DETAIL_PIPELINE_INSTANTIATIONS(extern, double)
+#endif
 
 }  // namespace v0
 }  // namespace aaf
