@@ -87,6 +87,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         s.filter.normal_angle_term = in.flag() ? in.value(50.0f) : 0.0f;
         s.filter.reject_beyond_z_min = in.flag();
     }
+    s.filter.rejection_boost = in.flag();  // read after the kernel's flags for the same reason
 
     const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{positions.cview(), normals.cview(), pixel_size.cview(),
                                                                        ids.cview()};

@@ -400,3 +400,38 @@ TEST_CASE("the direct AO kernel: its definition, the authors' 50-theta term and 
         CHECK_THROWS_WITH(aaf::validate(bad), Catch::Contains("settings.normal_angle_term"));
     }
 }
+
+// The authors' pre-filter rejection boost (FORMULAS.md §8.3, DEVIATIONS.md occlusion row 7): n / (1 − f), f the
+// fraction of the filter window the guides reject. Pixels whose window holds another object get more samples;
+// pixels whose window is all their own keep exactly the formula's n.
+TEST_CASE("the rejection boost adds samples only where the filter window is rejected", "[occlusion]") {
+    const ao_scene wall{{ao_half_plane{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}}, {}};
+    floor_frame f(24, 4, 0.02f, 0.005f);
+    for (std::size_t y = 0; y < 4; ++y)
+        for (std::size_t x = 12; x < 24; ++x) f.ids(x, y) = 7;
+    aaf::ao_frame_settings<float> s;
+    s.sampling.max_distance = 2.0f;
+    aaf::image<float> vis(24, 4), beta(24, 4);
+    aaf::image<std::uint32_t> plain(24, 4), boosted(24, 4);
+    const auto rays_plain =
+        aaf::render_ambient_occlusion(f.gb(), ao_tracer{&wall}, s, aaf::ao_outputs<float>{vis.view(), {}, beta.view(), plain.view()});
+    s.filter.rejection_boost = true;
+    const auto rays_boosted =
+        aaf::render_ambient_occlusion(f.gb(), ao_tracer{&wall}, s, aaf::ao_outputs<float>{vis.view(), {}, {}, boosted.view()});
+    CHECK(rays_boosted > rays_plain);
+    const aaf::filter_settings<float> fs = aaf::detail::ao_core_filter_settings(s.filter);
+    int checked_boosts = 0;
+    for (std::size_t y = 0; y < 4; ++y)
+        for (std::size_t x = 0; x < 24; ++x) {
+            CHECK(boosted(x, y) >= plain(x, y));
+            const std::size_t r = aaf::detail::kernel_radius(beta(x, y) / 0.02f, fs);
+            const bool window_crosses = x < 12 ? x + r >= 12 : x < 12 + r;
+            if (!window_crosses) {
+                CHECK(boosted(x, y) == plain(x, y));
+            } else if (plain(x, y) < s.sampling.max_samples) {
+                CHECK(boosted(x, y) > plain(x, y));
+                ++checked_boosts;
+            }
+        }
+    CHECK(checked_boosts >= 4);  // the boosted branch was taken (pixels below the cap whose window crosses)
+}

@@ -242,6 +242,8 @@ method_family occlusion_methods() {
             {{"kernel", "direct"}, {"reject_beyond_z_min", true}});
     variant("aaf_ao_zclamp", "aaf_ao with z_min clamped to at least 0.1 world units (min_distance), as the authors' scene constant",
             [](frame& s) { s.filter.min_distance = 0.1f; }, {{"min_distance", 0.1}});
+    variant("aaf_ao_boost", "aaf_ao with the authors' pre-filter rejection boost: n / (1 - fraction of the window rejected)",
+            [](frame& s) { s.filter.rejection_boost = true; }, {{"rejection_boost", true}});
     variant("aaf_ao_authors", "aaf_ao_direct with both of the authors' terms (50 theta and |dp| < z_min rejection)",
             [](frame& s) {
                 s.filter.kernel = aaf::ao_filter_kernel::direct;

@@ -24,7 +24,7 @@ TEST_CASE("occlusion methods render the boxes scene and aaf_ao beats Monte Carlo
     const gbuffer_images g = render_gbuffer(s, tracer, pool);
     const render_inputs in{s, tracer, g, pool, 3};
     const method_family f = occlusion_methods();
-    REQUIRE(f.methods.size() == 10);  // mc x2, aaf_ao and its 6 variants, sm_ao
+    REQUIRE(f.methods.size() == 11);  // mc x2, aaf_ao and its 7 variants, sm_ao
     REQUIRE(f.references.size() == 1);
     CHECK(f.references[0].what == quantity::ambient_occlusion);
     const aaf::image<float> ref = f.references[0].render(in, 1024, 77).image;

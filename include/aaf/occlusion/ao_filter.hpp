@@ -179,6 +179,43 @@ void ao_direct_filter(const G& g, const_image_view<T> pixel_size, const image<T>
     });
 }
 
+/// For rejection_boost: per pixel, the fraction f of its filter window (the separable filter's square of
+/// kernel_radius(β/d) pixels, clipped to the image) whose pixels the guides reject. Windows wider than
+/// 8 pixels are visited on a stride of ⌈r/8⌉ so a pixel costs at most 17² tests (departure from an
+/// exhaustive count, DEVIATIONS.md occlusion row 7). 0 where β or d is not positive (no filter: no boost).
+template <class T, class G, class Exec>
+void ao_rejected_fraction(const G& g, const_image_view<T> pixel_size, const image<T>& beta, image<T>& fraction,
+                          const ao_filter_settings<T>& s, Exec& exec) {
+    const std::size_t w = beta.width(), h = beta.height();
+    const filter_settings<T> fs = ao_core_filter_settings(s);
+    const T cos_threshold = std::cos(s.normal_threshold_degrees * T(0.017453292519943295));
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                fraction(x, y) = T(0);
+                const T b = beta(x, y), d = pixel_size(x, y);
+                if (!(b > T(0)) || !(d > T(0))) continue;
+                const std::size_t r = kernel_radius(b / d, fs);
+                if (r == 0) continue;
+                const std::size_t step = (r + 7) / 8;
+                const guide_center<T, G> gc(g, x, y);
+                std::size_t seen = 0, rejected = 0;
+                // Offsets from the centre so the centre itself is on the stride's lattice.
+                for (std::size_t oy = 0; oy <= 2 * r; oy += step) {
+                    if (y + oy < r || y + oy - r >= h) continue;
+                    const std::size_t ny = y + oy - r;
+                    for (std::size_t ox = 0; ox <= 2 * r; ox += step) {
+                        if (x + ox < r || x + ox - r >= w) continue;
+                        const std::size_t nx = x + ox - r;
+                        ++seen;
+                        if (!gc.accepts(g, nx, ny, cos_threshold)) ++rejected;
+                    }
+                }
+                fraction(x, y) = seen == 0 ? T(0) : static_cast<T>(rejected) / static_cast<T>(seen);
+            }
+    });
+}
+
 }  // namespace detail
 
 /// Filters a frame of AO records into `out`: β from each pixel's z_min (ao_filter_width), then the core's
@@ -328,12 +365,32 @@ std::uint64_t render_ambient_occlusion(const gbuffer<T, Ids>& gb, const Tracer& 
     spread_hit_distances(gb, stats.view(), s.filter.spread_radius, exec);
     image<std::uint32_t> extra(w, h, 0u);
     if (s.adaptive) {
+        image<T> rejected;  // the rejection boost's fraction f per pixel, when enabled
+        if (s.filter.rejection_boost) {
+            image<T> beta(w, h);
+            image<glm::vec<3, T>> normals(w, h);
+            for (std::size_t y = 0; y < h; ++y)
+                for (std::size_t x = 0; x < w; ++x) {
+                    const glm::vec<3, T> n = detail::ao_unit_or_zero(gb.normals(x, y));
+                    normals(x, y) = n == glm::vec<3, T>(0) ? glm::vec<3, T>(std::numeric_limits<T>::quiet_NaN()) : n;
+                    beta(x, y) = stats(x, y).samples == 0 ? T(0) : ao_filter_width(stats(x, y).z_min, s.filter);
+                }
+            rejected.reset(w, h);
+            if constexpr (gbuffer<T, Ids>::has_ids)
+                detail::ao_rejected_fraction<T>(guides{normals.cview(), gb.ids, no_guide{}}, gb.pixel_size, beta, rejected,
+                                                s.filter, exec);
+            else
+                detail::ao_rejected_fraction<T>(guides{normals.cview(), no_guide{}, no_guide{}}, gb.pixel_size, beta,
+                                                rejected, s.filter, exec);
+        }
         bool any = false;
         for (std::size_t y = 0; y < h; ++y)
             for (std::size_t x = 0; x < w; ++x) {
                 const ao_stats<T>& r = stats(x, y);
                 if (r.samples == 0 || !(r.z_min < std::numeric_limits<T>::infinity())) continue;
-                const T n = ao_sample_count(r.z_min, r.z_max, gb.pixel_size(x, y), s.filter);
+                T n = ao_sample_count(r.z_min, r.z_max, gb.pixel_size(x, y), s.filter);
+                // f = 1 gives n/0 = +∞ (or NaN for n = 0, which target_samples reads as the minimum): the cap.
+                if (s.filter.rejection_boost) n = n / (T(1) - rejected(x, y));
                 const std::uint32_t target = target_samples(n, s.sampling.initial_samples, s.sampling.max_samples);
                 extra(x, y) = target > r.samples ? target - r.samples : 0u;
                 any = any || extra(x, y) > 0;

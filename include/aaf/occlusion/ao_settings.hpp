@@ -91,6 +91,11 @@ struct ao_filter_settings {
     /// The authors' rejection of neighbours whose world distance from the centre is ≥ the centre's z_min
     /// (clamped by min_distance). Default off (DEVIATIONS.md occlusion row 3, measured there); needs kernel = direct.
     bool reject_beyond_z_min = false;
+    /// The authors' pre-filter rejection boost (FORMULAS.md §8.3): a pixel's adaptive n is divided by
+    /// (1 − f), f the fraction of the pixels in its filter window that the filter's guides reject (other ID,
+    /// normal beyond the threshold, no surface), so pixels at discontinuities, whose filter has little
+    /// support, get more samples (f = 1: the cap). Default off (DEVIATIONS.md occlusion row 7, measured there).
+    bool rejection_boost = false;
 };
 
 template <class T>
