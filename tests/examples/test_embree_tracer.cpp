@@ -252,8 +252,8 @@ TEST_CASE("embree_tracer's packet forms give its single-ray answers", "[embree][
         std::vector<float> nearest(n);
         std::vector<aaf::occluder_span<float>> spans(n);
         e.occluded_batch(in, std::span<bool>(occluded_out.get(), n));
-        e.nearest_occluder_batch(in, nearest);
-        e.occluder_span_batch(in, spans);
+        e.nearest_batch(in, nearest);
+        e.trace_batch(in, spans);
         std::size_t hits = 0;
         for (std::size_t i = 0; i < n; ++i) {
             INFO("segment " << i);
@@ -276,7 +276,7 @@ TEST_CASE("embree_tracer's packet forms give its single-ray answers", "[embree][
         if (n == segments.size()) CHECK(hits > n / 20);
     }
     std::vector<float> wrong(3);
-    CHECK_THROWS_AS(e.nearest_occluder_batch(segments, wrong), std::invalid_argument);
+    CHECK_THROWS_AS(e.nearest_batch(segments, wrong), std::invalid_argument);
 }
 
 TEST_CASE("scene_tracer (--tracer) builds either tracer, and both give the same G-buffer", "[embree][tracer_option]") {
