@@ -27,7 +27,7 @@ const char* error_name(RTCError e) noexcept {
     }
 }
 
-/// The segment as an Embree ray over 0 < t < length (Embree accepts tnear < t <= tfar); false when invalid.
+/// The segment as an Embree ray over 0 < t < length (Embree accepts tnear <= t <= tfar); false when invalid.
 /// Embree's limit on origin and direction components (FLT_LARGE in its sources); past it a ray is invalid and
 /// Debian's build, which keeps Embree's assertions, aborts.
 constexpr float embree_large = 1.844e18f;
@@ -41,7 +41,10 @@ bool make_ray(const aaf::shadow_segment<float>& s, RTCRay& ray) noexcept {
         return false;
     ray.org_x = s.origin.x, ray.org_y = s.origin.y, ray.org_z = s.origin.z;
     ray.dir_x = s.direction.x, ray.dir_y = s.direction.y, ray.dir_z = s.direction.z;
-    ray.tnear = 0.0f;
+    // Embree's interval is closed at tnear: with tnear = 0 a receiver lying exactly on another triangle (a corner
+    // of the Cornell box, where floor and wall meet) was occluded by it at t = 0, which the contract and the BVH
+    // exclude. The smallest normal float (not a denormal, which FTZ/DAZ would flush back to 0) excludes t = 0.
+    ray.tnear = std::numeric_limits<float>::min();
     ray.tfar = s.length > 0.0f ? std::nextafter(s.length, 0.0f) : -1.0f;  // length <= 0: an empty interval
     ray.time = 0.0f;
     ray.mask = ~0u;
