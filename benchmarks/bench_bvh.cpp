@@ -267,7 +267,7 @@ void BM_tracers(benchmark::State& state, const std::string& name, query q) {
                     for (std::size_t i = 0; i < in.size(); ++i) hits += out[i] ? 1 : 0;
                 } else {
                     float out[n];
-                    embree.nearest_occluder_batch(in, std::span<float>(out, in.size()));
+                    embree.nearest_batch(in, std::span<float>(out, in.size()));
                     for (std::size_t i = 0; i < in.size(); ++i) hits += out[i] != aaf::no_occluder<float> ? 1 : 0;
                 }
                 return hits;

@@ -14,11 +14,31 @@
 // threads:1 and threads:2 real times (docs/BENCHMARKS.md).
 //
 //   scripts/bench BM_frame
+//
+// With Embree (AAF_WITH_EMBREE): BM_frame_tracers/bunny/640x480/threads:T renders the same frame (same
+// G-buffer, same settings, same samples) with each tracer form in turn within every iteration, so that a
+// change in the machine's load hits them alike:
+//   bvh, bvh_first            the examples' BVH, one ray at a time: occluder_span (nearest and farthest in one
+//                             traversal) or nearest_occluder (first hit); any-hit `occluded` in the adaptive pass
+//   embree1, embree1_first    Embree one ray at a time: occluder_span (two rtcIntersect1 per occluded sample)
+//                             or nearest_occluder (one); rtcOccluded1 in the adaptive pass
+//   embree16/64/256           Embree's packets through aaf's batched queries, sampling_settings::batch_rays =
+//                             16, 64 (the default), 256: trace_batch (rtcIntersect16, then back rays of the
+//                             occluded samples in packets) and occluded_batch (rtcOccluded16)
+//   embree64_first            packets, nearest only: nearest_batch (rtcIntersect16) and occluded_batch
+// Counters per form F: F_ms (the frame, render_frame's total_ms), F_trace_ms (its two gathering passes),
+// F_Mrays/s (rays over the gathering passes' time, per frame), and F_x = bvh_ms / F_ms (frame speed-up over
+// the BVH). scripts/bench prints them as a table.
 
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <cstdint>
 #include <exception>
+#include <functional>
+#include <span>
+#include <utility>
+#include <vector>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -29,6 +49,9 @@
 #include "common/bvh.hpp"
 #include "common/render_support.hpp"
 #include "common/scene.hpp"
+#if AAF_EXAMPLES_EMBREE
+#include "common/embree_tracer.hpp"
+#endif
 
 namespace {
 
@@ -97,5 +120,95 @@ BENCHMARK(BM_frame)
     ->ArgNames({"threads", "light_plane"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+#if AAF_EXAMPLES_EMBREE
+// Views of a tracer that show aaf only some of its queries, so that render_frame takes the form measured.
+template <class Tracer>
+struct single_all_hits {  // occluder_span + occluded, one ray at a time
+    const Tracer* t;
+    [[nodiscard]] aaf::occluder_span<float> occluder_span(const aaf::shadow_segment<float>& g) const noexcept { return t->occluder_span(g); }
+    [[nodiscard]] bool occluded(const aaf::shadow_segment<float>& g) const noexcept { return t->occluded(g); }
+};
+template <class Tracer>
+struct single_first_hit {  // nearest_occluder + occluded, one ray at a time
+    const Tracer* t;
+    [[nodiscard]] float nearest_occluder(const aaf::shadow_segment<float>& g) const noexcept { return t->nearest_occluder(g); }
+    [[nodiscard]] bool occluded(const aaf::shadow_segment<float>& g) const noexcept { return t->occluded(g); }
+};
+struct packet_first_hit {  // nearest_batch + occluded_batch
+    const aaf_examples::embree_tracer* t;
+    void nearest_batch(std::span<const aaf::shadow_segment<float>> s, std::span<float> out) const { t->nearest_batch(s, out); }
+    void occluded_batch(std::span<const aaf::shadow_segment<float>> s, std::span<bool> out) const { t->occluded_batch(s, out); }
+};
+
+/// Args: threads. Every form renders the frame once per iteration, in turns (the order reversed every other
+/// iteration); the iteration time is the sum.
+void BM_frame_tracers(benchmark::State& state) {
+    const frame_scene& f = get_scene();
+    if (!f.error.empty()) {
+        state.SkipWithError(f.error.c_str());
+        return;
+    }
+    static const std::unique_ptr<aaf_examples::embree_tracer> embree =
+        std::make_unique<aaf_examples::embree_tracer>(f.scene.vertices, f.scene.triangles);
+    const aaf_examples::bvh& tree = *f.tree;
+    const aaf_examples::embree_tracer& e = *embree;
+    const std::size_t w = f.scene.width, h = f.scene.height;
+    const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{f.g.positions.cview(), f.g.normals.cview(),
+                                                                       f.g.pixel_size.cview(), f.g.ids.cview()};
+    aaf::frame_workspace<float> ws;
+    aaf::image<float> visibility(w, h);
+    aaf::thread_pool pool(static_cast<std::size_t>(state.range(0)));
+    const auto frame = [&](const auto& tracer, std::uint32_t batch_rays) {
+        aaf::frame_settings<float> settings;
+        settings.sampling.batch_rays = batch_rays;
+        return aaf::render_frame(gb, f.scene.light, tracer, {visibility.view()}, ws, settings, pool);
+    };
+    using form = std::pair<const char*, std::function<aaf::frame_report()>>;
+    const std::vector<form> forms = {
+        {"bvh", [&] { return frame(single_all_hits<aaf_examples::bvh>{&tree}, 64); }},
+        {"bvh_first", [&] { return frame(single_first_hit<aaf_examples::bvh>{&tree}, 64); }},
+        {"embree1", [&] { return frame(single_all_hits<aaf_examples::embree_tracer>{&e}, 64); }},
+        {"embree1_first", [&] { return frame(single_first_hit<aaf_examples::embree_tracer>{&e}, 64); }},
+        {"embree16", [&] { return frame(e, 16); }},
+        {"embree64", [&] { return frame(e, 64); }},
+        {"embree256", [&] { return frame(e, 256); }},
+        {"embree64_first", [&] { return frame(packet_first_hit{&e}, 64); }},
+    };
+    std::vector<double> total(forms.size(), 0.0), trace(forms.size(), 0.0), rays(forms.size(), 0.0);
+    bool forward = true;
+    for (auto _ : state) {
+        double iteration = 0;
+        for (std::size_t k = 0; k < forms.size(); ++k) {
+            const std::size_t i = forward ? k : forms.size() - 1 - k;
+            const aaf::frame_report r = forms[i].second();
+            benchmark::DoNotOptimize(visibility.data());
+            total[i] += r.total_ms, trace[i] += r.initial_ms + r.adaptive_ms, rays[i] += static_cast<double>(r.rays());
+            iteration += r.total_ms;
+        }
+        forward = !forward;
+        state.SetIterationTime(iteration * 1e-3);
+    }
+    const auto n = static_cast<double>(state.iterations());
+    for (std::size_t i = 0; i < forms.size(); ++i) {
+        const std::string name = forms[i].first;
+        state.counters[name + "_ms"] = total[i] / n;
+        state.counters[name + "_trace_ms"] = trace[i] / n;
+        state.counters[name + "_Mrays/s"] = rays[i] * 1e-3 / trace[i];  // rays per ms = 1e-3 Mrays/s
+        state.counters[name + "_x"] = total[0] / total[i];
+    }
+    state.counters["rays_per_px"] = rays[0] / n / static_cast<double>(w * h);
+    // Every all-hits form traces the same rays (the adaptive counts follow from equal statistics).
+    for (const std::size_t i : {std::size_t{2}, std::size_t{4}, std::size_t{5}, std::size_t{6}})
+        if (std::abs(rays[i] - rays[0]) > 1e-3 * rays[0]) state.SkipWithError("the tracers' frames traced different numbers of rays");
+}
+BENCHMARK(BM_frame_tracers)
+    ->Name("BM_frame_tracers/bunny/640x480")
+    ->ArgName("threads")
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseManualTime();
+#endif
 
 }  // namespace

@@ -27,7 +27,7 @@ const char* error_name(RTCError e) noexcept {
     }
 }
 
-/// The segment as an Embree ray over 0 < t < length (Embree accepts tnear < t <= tfar); false when invalid.
+/// The segment as an Embree ray over 0 < t < length (Embree accepts tnear <= t <= tfar); false when invalid.
 /// Embree's limit on origin and direction components (FLT_LARGE in its sources); past it a ray is invalid and
 /// Debian's build, which keeps Embree's assertions, aborts.
 constexpr float embree_large = 1.844e18f;
@@ -41,7 +41,10 @@ bool make_ray(const aaf::shadow_segment<float>& s, RTCRay& ray) noexcept {
         return false;
     ray.org_x = s.origin.x, ray.org_y = s.origin.y, ray.org_z = s.origin.z;
     ray.dir_x = s.direction.x, ray.dir_y = s.direction.y, ray.dir_z = s.direction.z;
-    ray.tnear = 0.0f;
+    // Embree's interval is closed at tnear: with tnear = 0 a receiver lying exactly on another triangle (a corner
+    // of the Cornell box, where floor and wall meet) was occluded by it at t = 0, which the contract and the BVH
+    // exclude. The smallest normal float (not a denormal, which FTZ/DAZ would flush back to 0) excludes t = 0.
+    ray.tnear = std::numeric_limits<float>::min();
     ray.tfar = s.length > 0.0f ? std::nextafter(s.length, 0.0f) : -1.0f;  // length <= 0: an empty interval
     ray.time = 0.0f;
     ray.mask = ~0u;
@@ -275,8 +278,8 @@ void embree_tracer::occluded_batch(std::span<const aaf::shadow_segment<float>> s
     }
 }
 
-void embree_tracer::nearest_occluder_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<float> out) const {
-    require_same_size("nearest_occluder_batch", segments.size(), out);
+void embree_tracer::nearest_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<float> out) const {
+    require_same_size("nearest_batch", segments.size(), out);
     for (std::size_t first = 0; first < segments.size(); first += lanes) {
         const std::size_t n = std::min(lanes, segments.size() - first);
         alignas(64) int valid[lanes];
@@ -299,39 +302,47 @@ void embree_tracer::nearest_occluder_batch(std::span<const aaf::shadow_segment<f
     }
 }
 
-void embree_tracer::occluder_span_batch(std::span<const aaf::shadow_segment<float>> segments,
-                                        std::span<aaf::occluder_span<float>> out) const {
-    require_same_size("occluder_span_batch", segments.size(), out);
+void embree_tracer::trace_batch(std::span<const aaf::shadow_segment<float>> segments,
+                                std::span<aaf::occluder_span<float>> out) const {
+    require_same_size("trace_batch", segments.size(), out);
     constexpr float nan = std::numeric_limits<float>::quiet_NaN();
-    for (std::size_t first = 0; first < segments.size(); first += lanes) {
-        const std::size_t n = std::min(lanes, segments.size() - first);
-        float nearest[lanes];
-        nearest_occluder_batch(segments.subspan(first, n), std::span<float>(nearest, n));
-        alignas(64) int valid[lanes];
-        alignas(64) RTCRayHit16 packet;
-        float end[lanes];
-        for (std::size_t i = 0; i < lanes; ++i) {
-            RTCRay r;
-            valid[i] = i < n && !std::isnan(nearest[i]) && nearest[i] != aaf::no_occluder<float> &&
-                               impl_->back_ray(segments[first + i], nearest[i], r, end[i])
-                           ? -1
-                           : 0;
-            if (valid[i]) set_lane(packet.ray, i, r);
-            else clear_lane(packet.ray, i);
-            packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-            packet.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
-        }
-        RTCIntersectContext context;
-        rtcInitIntersectContext(&context);
-        rtcIntersect16(valid, impl_->scene, &context, &packet);
+    // Chunks of up to `chunk` segments keep the scratch on the stack (no allocation per call, calls come from
+    // many threads); the back rays of a chunk's occluded segments are gathered so their packets are full.
+    constexpr std::size_t chunk = 16 * lanes;
+    for (std::size_t first = 0; first < segments.size(); first += chunk) {
+        const std::size_t n = std::min(chunk, segments.size() - first);
+        const std::span<const aaf::shadow_segment<float>> in = segments.subspan(first, n);
+        float nearest[chunk];
+        nearest_batch(in, std::span<float>(nearest, n));
+        std::uint16_t occluded[chunk];  // indices into `in` of the segments with a nearest hit
+        std::size_t count = 0;
         for (std::size_t i = 0; i < n; ++i) {
             aaf::occluder_span<float>& o = out[first + i];
             if (std::isnan(nearest[i])) o = {nan, 0.0f};
             else if (nearest[i] == aaf::no_occluder<float>) o = {};
-            else if (!valid[i]) o = {nearest[i], nearest[i]};
-            else o = {nearest[i], packet.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID
-                                      ? nearest[i]
-                                      : std::max(nearest[i], end[i] - packet.ray.tfar[i])};
+            else o = {nearest[i], nearest[i]}, occluded[count++] = static_cast<std::uint16_t>(i);
+        }
+        for (std::size_t k = 0; k < count; k += lanes) {
+            const std::size_t m = std::min(lanes, count - k);
+            alignas(64) int valid[lanes];
+            alignas(64) RTCRayHit16 packet;
+            float end[lanes];
+            for (std::size_t l = 0; l < lanes; ++l) {
+                RTCRay r;
+                valid[l] = l < m && impl_->back_ray(in[occluded[k + l]], nearest[occluded[k + l]], r, end[l]) ? -1 : 0;
+                if (valid[l]) set_lane(packet.ray, l, r);
+                else clear_lane(packet.ray, l);
+                packet.hit.geomID[l] = RTC_INVALID_GEOMETRY_ID;
+                packet.hit.instID[0][l] = RTC_INVALID_GEOMETRY_ID;
+            }
+            RTCIntersectContext context;
+            rtcInitIntersectContext(&context);
+            rtcIntersect16(valid, impl_->scene, &context, &packet);
+            for (std::size_t l = 0; l < m; ++l) {
+                if (!valid[l] || packet.hit.geomID[l] == RTC_INVALID_GEOMETRY_ID) continue;  // the span stays {nearest, nearest}
+                const std::size_t i = occluded[k + l];
+                out[first + i].farthest = std::max(nearest[i], end[l] - packet.ray.tfar[l]);
+            }
         }
     }
 }

@@ -9,8 +9,8 @@
 //
 // How each query maps onto Embree (single-ray forms, rtcIntersect1 / rtcOccluded1; scene built with
 // RTC_SCENE_FLAG_ROBUST, so rays through shared edges and vertices do not leak between triangles):
-//   nearest_occluder  rtcIntersect1 with tnear = 0, tfar = the float below `length`: Embree accepts
-//                     tnear < t <= tfar, which is the contract's open interval 0 < t < length.
+//   nearest_occluder  rtcIntersect1 with tnear = the smallest normal float, tfar = the float below `length`:
+//                     Embree accepts tnear <= t <= tfar, which is the contract's open interval 0 < t < length.
 //   occluded          rtcOccluded1 over the same interval. It reports no distance (Embree stops at any hit).
 //   occluder_span     two rtcIntersect1: the nearest hit from the receiver, then, when there is one, the nearest
 //                     hit from the light point back towards the receiver, which is the farthest hit of the
@@ -71,21 +71,27 @@ public:
     /// Any hit with 0 < t < length; false for an invalid segment.
     [[nodiscard]] bool occluded(const aaf::shadow_segment<float>& segment) const noexcept;
 
-    // Packet forms: the same answers for many segments at once, traced 16 at a time through Embree's ray packets
-    // (rtcIntersect16 / rtcOccluded16; Embree runs them on narrower SIMD where the CPU has no AVX-512). Fill the
-    // packets by passing many segments (a tile's or a row's, not one pixel's 9): a partial packet costs nearly a
-    // full one. `out` must have the size of `segments` (else std::invalid_argument). Not the aaf batch contract
-    // (tracer.hpp's trace_batch asks for nearest and farthest hits of one pixel's segments), which is being
-    // redesigned: an adapter from the library's batched forms to these is one line each.
+    // Batched forms: aaf's batched tracer queries (include/aaf/tracer.hpp: trace_batch, nearest_batch,
+    // occluded_batch, with the library's exact signatures, so aaf::render_frame detects and calls them), traced 16
+    // at a time through Embree's ray packets (rtcIntersect16 / rtcOccluded16; Embree runs a 16-wide packet as two
+    // 8-wide halves where the CPU has no AVX-512). aaf hands them whole pixels' segments, several pixels per call
+    // (at least sampling_settings::batch_rays, 64 by default), so packets are full but for the last one of a
+    // call. `out` must have the size of `segments` (else std::invalid_argument). Each answers what the single-ray
+    // form of the same name answers for every segment (up to the rounding of Embree's packet kernels).
     static constexpr std::size_t packet_size = 16;  ///< rays per Embree packet
 
-    /// occluded() of every segment (false for invalid ones).
+    /// Any hit: occluded() of every segment (false for invalid ones); rtcOccluded16.
     void occluded_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<bool> out) const;
-    /// nearest_occluder() of every segment (aaf::no_occluder on a miss, NaN for invalid ones).
-    void nearest_occluder_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<float> out) const;
-    /// occluder_span() of every segment: a packet of nearest hits, then a packet of back rays for the occluded ones.
-    void occluder_span_batch(std::span<const aaf::shadow_segment<float>> segments,
-                             std::span<aaf::occluder_span<float>> out) const;
+    /// Nearest hit only: nearest_occluder() of every segment (aaf::no_occluder on a miss, NaN for invalid ones);
+    /// rtcIntersect16. What aaf uses when the tracer is shown to it without trace_batch (a "first hit" tracer).
+    void nearest_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<float> out) const;
+    /// Nearest and farthest hit: occluder_span() of every segment. A packet cannot return the farthest hit, so
+    /// this is the honest packet way of the single-ray form's two rays: packets of nearest hits for all the
+    /// segments, then the back rays (from the light point towards the receiver) of the occluded segments alone,
+    /// gathered into full packets (up to 256 segments at a time), so an unoccluded segment costs one ray and an
+    /// occluded one two.
+    void trace_batch(std::span<const aaf::shadow_segment<float>> segments,
+                     std::span<aaf::occluder_span<float>> out) const;
 
     /// Triangles in the Embree scene (after dropping unusable ones).
     [[nodiscard]] std::size_t triangle_count() const noexcept;

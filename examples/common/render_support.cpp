@@ -47,7 +47,8 @@ bool parse_shared_option(const std::string& flag, const std::function<std::strin
     else if (flag == "--seed") o.seed = parse_count(flag, value(), 0, 0xffffffffu);
     else if (flag == "--tracer" && o.tracer) {
         *o.tracer = value();
-        if (*o.tracer != "bvh" && *o.tracer != "embree") throw usage_error("--tracer: '" + *o.tracer + "' is not bvh or embree");
+        if (*o.tracer != "bvh" && *o.tracer != "embree" && *o.tracer != "embree-single")
+            throw usage_error("--tracer: '" + *o.tracer + "' is not bvh, embree or embree-single");
     }
     else if (flag == "--size") {
         std::size_t width = 0, height = 0;
@@ -61,20 +62,50 @@ scene_tracer::scene_tracer(const scene& s, const std::string& kind) {
     if (kind == "bvh") {
         owned_bvh_ = std::make_unique<bvh>(s.vertices, s.triangles);
         bvh_ = owned_bvh_.get();
-    } else if (kind == "embree") {
+    } else if (kind == "embree" || kind == "embree-single") {
 #if AAF_EXAMPLES_EMBREE
         owned_embree_ = std::make_unique<embree_tracer>(s.vertices, s.triangles);
         embree_ = owned_embree_.get();
+        packets_ = kind == "embree";
 #else
-        throw usage_error("--tracer embree: these examples were built without Embree (install libembree-dev and "
+        throw usage_error("--tracer " + kind + ": these examples were built without Embree (install libembree-dev and "
                           "configure with -DAAF_WITH_EMBREE=ON)");
 #endif
     } else {
-        throw usage_error("--tracer: '" + kind + "' is not bvh or embree");
+        throw usage_error("--tracer: '" + kind + "' is not bvh, embree or embree-single");
     }
 }
 
 scene_tracer::~scene_tracer() = default;
+
+// The batched forms: Embree's packets for "embree", else the single-ray query once per segment (the same
+// answers as aaf's own loop over the single-ray form would get).
+void scene_tracer::trace_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<aaf::occluder_span<float>> out) const {
+#if AAF_EXAMPLES_EMBREE
+    if (packets()) return embree_->trace_batch(segments, out);
+#endif
+    dispatch([&](const auto& t) {
+        for (std::size_t i = 0; i < segments.size(); ++i) out[i] = t.occluder_span(segments[i]);
+    });
+}
+
+void scene_tracer::nearest_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<float> out) const {
+#if AAF_EXAMPLES_EMBREE
+    if (packets()) return embree_->nearest_batch(segments, out);
+#endif
+    dispatch([&](const auto& t) {
+        for (std::size_t i = 0; i < segments.size(); ++i) out[i] = t.nearest_occluder(segments[i]);
+    });
+}
+
+void scene_tracer::occluded_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<bool> out) const {
+#if AAF_EXAMPLES_EMBREE
+    if (packets()) return embree_->occluded_batch(segments, out);
+#endif
+    dispatch([&](const auto& t) {
+        for (std::size_t i = 0; i < segments.size(); ++i) out[i] = t.occluded(segments[i]);
+    });
+}
 
 bool gbuffer_images::surface(std::size_t i) const noexcept { return std::isfinite(positions.data()[i].x); }
 
@@ -148,10 +179,14 @@ struct fnv1a {
 
 }  // namespace
 
-std::string reference_file_name(const scene& s, const reference_params& p) {
+std::string reference_file_name(const scene& s, const reference_params& p, std::string_view engine) {
     fnv1a f;
-    const std::uint32_t format = 3;  // bump when the reference's meaning changes (3: the seed joined the key)
+    // Bump when the reference's meaning changes (3: the seed joined the key; 4: the tracer's engine did; 5: Embree
+    // no longer counts a hit at t = 0, which darkened receivers lying on another triangle).
+    const std::uint32_t format = 5;
     f.add_value(format);
+    f.add_value(engine.size());
+    f.add(engine.data(), engine.size());
     f.add(s.vertices);
     f.add(s.triangles);
     // Field by field: area_light ends in a bool, and hashing the struct whole read its padding bytes, whose
@@ -176,7 +211,7 @@ reference_result reference_visibility(const scene& s, const gbuffer_images& g, c
                                       const reference_params& p, const fs::path& cache, aaf::thread_pool& pool, bool progress) {
     const auto t0 = clock_type::now();
     const std::size_t w = s.width, h = s.height;
-    const fs::path file = cache / reference_file_name(s, p);
+    const fs::path file = cache / reference_file_name(s, p, tracer.engine());
     reference_result r{aaf::image<float>(w, h), false, 0};
     aaf::image<float>& ref = r.visibility;
     if (std::ifstream in{file, std::ios::binary}) {

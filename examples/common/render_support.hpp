@@ -13,8 +13,10 @@
 #include <limits>
 #include <memory>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <glm/vec3.hpp>
@@ -76,6 +78,13 @@ struct shared_options {
 /// The examples' ray tracer: the BVH (common/bvh.hpp), or Embree 3 (common/embree_tracer.hpp) when the examples
 /// were built with it, behind the BVH's queries. Either owns its tracer (built from a scene) or borrows a BVH
 /// (the implicit conversion, so code holding a `bvh` passes it wherever a scene_tracer is asked for).
+///
+/// It offers aaf every query of the contract, single-ray and batched (tracer.hpp), so aaf always hands it
+/// batches (trace_batch for distances, occluded_batch for visibility; nearest_batch through first_hit_tracer).
+/// What a batch costs depends on the kind chosen at run time:
+///   "bvh"            the BVH one ray at a time (a single-ray tracer: the batch is a loop, same answers);
+///   "embree"         Embree's 16-wide packets (embree_tracer's trace_batch / nearest_batch / occluded_batch);
+///   "embree-single"  Embree one ray at a time (rtcIntersect1 / rtcOccluded1), to measure what packets buy.
 class scene_tracer {
     // First: the members below deduce their return type from dispatch().
 #if AAF_EXAMPLES_EMBREE
@@ -84,7 +93,10 @@ class scene_tracer {
     decltype(auto) dispatch(F&& f) const noexcept { return embree_ ? f(*embree_) : f(*bvh_); }
     std::unique_ptr<embree_tracer> owned_embree_;
     const embree_tracer* embree_ = nullptr;
+    bool packets_ = false;  // "embree": batches go to Embree's packets; "embree-single": one ray at a time
+    [[nodiscard]] bool packets() const noexcept { return packets_; }
 #else
+    [[nodiscard]] static constexpr bool packets() noexcept { return false; }
     [[nodiscard]] bool is_embree() const noexcept { return false; }
     template <class F>
     decltype(auto) dispatch(F&& f) const noexcept { return f(*bvh_); }
@@ -93,8 +105,8 @@ class scene_tracer {
     const bvh* bvh_ = nullptr;
 
 public:
-    /// Builds `kind` ("bvh" or "embree") over the scene's triangles; usage_error for another name or for
-    /// "embree" in a build without Embree.
+    /// Builds `kind` ("bvh", "embree" or "embree-single") over the scene's triangles; usage_error for another
+    /// name or for an Embree kind in a build without Embree.
     scene_tracer(const scene& s, const std::string& kind);
     scene_tracer(const bvh& borrowed) noexcept : bvh_(&borrowed) {}  // NOLINT: implicit on purpose
     scene_tracer(scene_tracer&&) noexcept = default;
@@ -102,8 +114,11 @@ public:
     scene_tracer& operator=(const scene_tracer&) = delete;
     ~scene_tracer();
 
-    /// "bvh" or "embree".
-    [[nodiscard]] const char* name() const noexcept { return is_embree() ? "embree" : "bvh"; }
+    /// The kind: "bvh", "embree" or "embree-single".
+    [[nodiscard]] const char* name() const noexcept { return is_embree() ? (packets() ? "embree" : "embree-single") : "bvh"; }
+    /// The ray tracer behind it, "bvh" or "embree": what its answers depend on (the kind's batching does not
+    /// change them beyond float rounding; the reference cache key holds this).
+    [[nodiscard]] const char* engine() const noexcept { return is_embree() ? "embree" : "bvh"; }
     [[nodiscard]] std::size_t triangle_count() const noexcept { return dispatch([](const auto& t) { return t.triangle_count(); }); }
     [[nodiscard]] ray_hit nearest_hit(const glm::vec3& origin, const glm::vec3& direction,
                                       float t_max = std::numeric_limits<float>::infinity()) const noexcept {
@@ -118,7 +133,10 @@ public:
     [[nodiscard]] bool occluded(const aaf::shadow_segment<float>& g) const noexcept {
         return dispatch([&](const auto& t) { return t.occluded(g); });
     }
-
+    // aaf's batched forms (tracer.hpp). `out` has the size of `segments` (aaf's gathers guarantee it).
+    void trace_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<aaf::occluder_span<float>> out) const;
+    void nearest_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<float> out) const;
+    void occluded_batch(std::span<const aaf::shadow_segment<float>> segments, std::span<bool> out) const;
 };
 /// If `flag` is one of the shared options, stores its value (read with `value()`) and returns true.
 bool parse_shared_option(const std::string& flag, const std::function<std::string()>& value, const shared_options& o);
@@ -129,6 +147,9 @@ struct first_hit_tracer {
     [[nodiscard]] float nearest_occluder(const aaf::shadow_segment<float>& s) const noexcept { return tracer->nearest_occluder(s); }
     // The adaptive pass only asks "occluded?" (shadow_query::visibility): give it the any-hit query too.
     [[nodiscard]] bool occluded(const aaf::shadow_segment<float>& s) const noexcept { return tracer->occluded(s); }
+    // Batched, as scene_tracer (nearest-only packets, rtcIntersect16, with --tracer embree).
+    void nearest_batch(std::span<const aaf::shadow_segment<float>> s, std::span<float> out) const { tracer->nearest_batch(s, out); }
+    void occluded_batch(std::span<const aaf::shadow_segment<float>> s, std::span<bool> out) const { tracer->occluded_batch(s, out); }
 };
 
 /// The G-buffer of a pinhole camera, in the layout aaf reads. Sky pixels have NaN position and normal.
@@ -164,8 +185,11 @@ struct reference_result {
     double ms = 0;
 };
 
-/// The cache file name of a reference: a 64-bit hash of everything it depends on.
-[[nodiscard]] std::string reference_file_name(const scene& s, const reference_params& p);
+/// The cache file name of a reference: a 64-bit hash of everything it depends on, the tracer's engine
+/// ("bvh" or "embree", scene_tracer::engine()) included: the reference is traced from that tracer's G-buffer
+/// with that tracer's any-hit query, and the two tracers round differently (G-buffer positions within ~1e-4,
+/// a rare ray through a rounding tie), so an Embree run must not silently be judged against a BVH reference.
+[[nodiscard]] std::string reference_file_name(const scene& s, const reference_params& p, std::string_view engine);
 
 /// The converged reference: plain stratified Monte Carlo with `p.spp` samples per pixel through the BVH's
 /// any-hit query and its own loop (independent of aaf's gathering code, which it judges), in chunks (with a

@@ -45,7 +45,7 @@ struct config {
     std::size_t threads = 2;                    ///< 0 = all cores
     std::filesystem::path cache;                ///< reference cache folder
     std::uint32_t seed = 0;                     ///< frame seed of every measured method
-    std::string tracer = "bvh";                 ///< "bvh" or "embree" (--tracer)
+    std::string tracer = "bvh";                 ///< "bvh", "embree" or "embree-single" (--tracer)
     std::uint32_t reference_spp = 4096;         ///< total; rendered as two independent halves
     std::uint32_t repeat = 3;                   ///< timings are the median of this many runs
     std::uint32_t max_mc_spp = 1024;            ///< cap of the stratified baseline's sweep

@@ -171,6 +171,21 @@ TEST_CASE("embree_tracer follows the tracer contract at its edges, as bvh does",
     }
     // The hit at exactly t = length is the light's own position: not an occluder (0 < t < length).
     CHECK_FALSE(e.occluded({o, d, 1.0f}));
+    // Nor is a hit at exactly t = 0: a receiver lying on another triangle (the Cornell box's floor-wall corner
+    // found it; Embree's interval is closed at tnear). Both directions, every query and form, as the BVH.
+    for (const glm::vec3& dir : {glm::vec3(0, 0, 1), glm::vec3(0, 0, -1), glm::normalize(glm::vec3(1, 1, 1))}) {
+        const segment on{glm::vec3(0.3f, 0.6f, 1.0f), dir, 2.0f};
+        CHECK(b.occluded(on) == false);
+        CHECK_FALSE(e.occluded(on));
+        CHECK(e.nearest_occluder(on) == b.nearest_occluder(on));
+        CHECK_FALSE(e.occluder_span(on).hit());
+        bool packet_occluded = true;
+        float packet_nearest = 0;
+        e.occluded_batch(std::span<const segment>(&on, 1), std::span<bool>(&packet_occluded, 1));
+        e.nearest_batch(std::span<const segment>(&on, 1), std::span<float>(&packet_nearest, 1));
+        CHECK_FALSE(packet_occluded);
+        CHECK(packet_nearest == aaf::no_occluder<float>);
+    }
     CHECK(e.nearest_occluder({o, d, 2.0f}) == 1.0f);
     const aaf::occluder_span<float> span = e.occluder_span({o, d, 2.0f});
     CHECK(span.nearest == 1.0f);
@@ -252,8 +267,8 @@ TEST_CASE("embree_tracer's packet forms give its single-ray answers", "[embree][
         std::vector<float> nearest(n);
         std::vector<aaf::occluder_span<float>> spans(n);
         e.occluded_batch(in, std::span<bool>(occluded_out.get(), n));
-        e.nearest_occluder_batch(in, nearest);
-        e.occluder_span_batch(in, spans);
+        e.nearest_batch(in, nearest);
+        e.trace_batch(in, spans);
         std::size_t hits = 0;
         for (std::size_t i = 0; i < n; ++i) {
             INFO("segment " << i);
@@ -276,7 +291,7 @@ TEST_CASE("embree_tracer's packet forms give its single-ray answers", "[embree][
         if (n == segments.size()) CHECK(hits > n / 20);
     }
     std::vector<float> wrong(3);
-    CHECK_THROWS_AS(e.nearest_occluder_batch(segments, wrong), std::invalid_argument);
+    CHECK_THROWS_AS(e.nearest_batch(segments, wrong), std::invalid_argument);
 }
 
 TEST_CASE("scene_tracer (--tracer) builds either tracer, and both give the same G-buffer", "[embree][tracer_option]") {
