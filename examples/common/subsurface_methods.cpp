@@ -26,7 +26,7 @@ enum class material_choice { marble, skim_milk };
 enum class light_choice {
     area_normal,  ///< along the scene's area light's normal (the quantity's reference)
     side,         ///< perpendicular to the camera's view direction (horizontal, from the camera's right)
-    back,         ///< from behind the object towards the camera: thin parts glow in transmission
+    back,         ///< from behind the object towards the camera, level and tilted 19° down: thin parts glow
 };
 /// A variant of the quantity: its material and light.
 struct look {
@@ -56,12 +56,17 @@ setup make_setup(const scene& s, look k = {}) {
     glm::vec3 view = s.view.target - s.view.position;
     if (!(glm::length(view) > 0)) view = glm::vec3(0, 0, -1);
     view = glm::normalize(view);
-    if (k.light == light_choice::back) {  // travelling towards the camera
-        u.travel = -view;
+    const glm::vec3 up = glm::length(s.view.up) > 0 ? glm::normalize(s.view.up) : glm::vec3(0, 1, 0);
+    if (k.light == light_choice::back) {
+        // Travelling towards the camera, level with the ground and tilted down by atan(0.35) ≈ 19°: straight
+        // along −view the light would travel upwards for a camera looking down, lighting the floor's underside
+        // and leaving the object in its shadow. Level, it crosses thin parts (the ears) which then glow.
+        glm::vec3 level = -view - glm::dot(-view, up) * up;
+        u.travel = glm::length(level) > 1e-3f ? glm::normalize(glm::normalize(level) - 0.35f * up) : -view;
         return u;
     }
     if (k.light == light_choice::side) {  // travelling right to left across the picture
-        glm::vec3 right = glm::cross(view, s.view.up);
+        glm::vec3 right = glm::cross(view, up);
         if (!(glm::length(right) > 1e-6f)) right = glm::cross(view, std::abs(view.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0));
         u.travel = -glm::normalize(right);
         return u;
@@ -241,7 +246,7 @@ method_family subsurface_methods() {
         m.help = std::string("sss_profile in ") + e.material + ", lit from the " + e.light +
                  " (judged against its own reference with the same material and light; not in aaf-tradeoff)";
         const char* light_text = e.k.light == light_choice::side   ? "directional, perpendicular to the view direction (from the camera's right)"
-                                 : e.k.light == light_choice::back ? "directional, from behind the object towards the camera"
+                                 : e.k.light == light_choice::back ? "directional, from behind the object towards the camera, level, tilted 19 degrees down"
                                                                    : "directional along the area light's normal, irradiance 1";
         m.settings = {{"material", std::string(e.material) + ", scene diagonal = 300 mm"},
                       {"light", light_text},

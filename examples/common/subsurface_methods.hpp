@@ -21,7 +21,7 @@ namespace aaf_examples {
 /// all over the knob "samples" (per pixel), and the reference of quantity::subsurface. Besides, variants of
 /// sss_profile in another material or light (sss_profile_side, sss_profile_back, sss_profile_skim_milk,
 /// sss_profile_skim_milk_side, sss_profile_skim_milk_back: skim milk is Jensen 2001's preset; "side" travels
-/// perpendicular to the camera's view direction, from the camera's right; "back" travels from behind the object
+/// perpendicular to the camera's view direction, from the camera's right; "back" travels level (tilted 19° down) from behind the object
 /// towards the camera, so thin parts glow), each with its own reference (method::own_reference) of the same
 /// material and light; aaf-tradeoff leaves them out.
 [[nodiscard]] method_family subsurface_methods();
