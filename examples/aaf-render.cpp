@@ -236,11 +236,14 @@ int run_method(const options& opt) {
     for (const auto& [name, picture] : out.colour_pictures) pictures.rgb(m.name + "-" + name + ".png", picture);
     double error = std::numeric_limits<double>::quiet_NaN();
     if (opt.reference) {
-        const aaf_examples::reference_output ref = aaf_examples::find_reference(m.what).render(in, opt.reference_spp, 0);
+        // A variant (own_reference) is judged against the reference of its own material and light.
+        const aaf_examples::reference_output ref = m.own_reference ? aaf_examples::reference_output(m.own_reference(in, opt.reference_spp, 0))
+                                                                   : aaf_examples::find_reference(m.what).render(in, opt.reference_spp, 0);
         aaf::image<aaf::rgb8> rgb(s.width, s.height);
         error = aaf_examples::rmse(out.image, ref.image, g.surface_mask());
         aaf::difference_image<float>(out.image.cview(), ref.image.cview(), rgb.view(), 0.1);
-        pictures.gray(std::string("reference-") + aaf_examples::to_string(m.what) + ".png", ref.image);
+        pictures.gray(m.own_reference ? "reference-" + m.name + ".png" : std::string("reference-") + aaf_examples::to_string(m.what) + ".png",
+                      ref.image);
         pictures.rgb(m.name + "-error.png", rgb);
     }
     pictures.commit();

@@ -70,6 +70,11 @@ struct method {
     std::string help;                  ///< one line for --help
     nlohmann::json settings;           ///< everything fixed besides the knob, for the JSON record
     std::function<method_output(const render_inputs&, double knob)> render;
+    /// Set by a method that renders a variant of its quantity (another material or light than the quantity's
+    /// reference assumes, e.g. the subsurface family's skim milk or back-lit variants): the reference image with
+    /// the same material and light (samples per pixel, frame seed), which aaf-render judges it against instead
+    /// of find_reference(what). aaf-tradeoff, whose curves share one reference, leaves such methods out.
+    std::function<aaf::image<float>(const render_inputs&, std::uint32_t samples, std::uint32_t seed)> own_reference;
 };
 
 /// A reference image and what it cost (a lambda may return just the image).

@@ -55,6 +55,7 @@ method mc_method(std::string name, aaf::sample_pattern pattern, std::string desc
                 out.stages_ms = {{"rays", r.rays_ms}};
                 return out;
             },
+        .own_reference = {},
     };
 }
 
@@ -172,6 +173,7 @@ method aaf_method(std::string name, std::string family, aaf_variant v, std::stri
         .help = description,
         .settings = aaf_settings_json(v, description),
         .render = {},
+        .own_reference = {},
     };
     m.render = [v](const render_inputs& in, double knob) {
         const aaf::frame_settings<float> fs = aaf_settings(v, knob, in.seed, in.s.radiance);

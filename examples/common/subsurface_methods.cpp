@@ -20,6 +20,21 @@ constexpr float scene_diagonal_mm = 300;  ///< the scene's bounding-box diagonal
 constexpr float exposure = 3;             ///< displayable = min(1, exposure · mean radiance)
 constexpr std::size_t map_resolution = 512;
 
+/// The material of a method (Jensen 2001's presets, aaf::subsurface::presets).
+enum class material_choice { marble, skim_milk };
+/// Where a method's directional light comes from.
+enum class light_choice {
+    area_normal,  ///< along the scene's area light's normal (the quantity's reference)
+    side,         ///< perpendicular to the camera's view direction (horizontal, from the camera's right)
+    back,         ///< from behind the object towards the camera, level and tilted 19° down: thin parts glow
+};
+/// A variant of the quantity: its material and light.
+struct look {
+    material_choice material = material_choice::marble;
+    light_choice light = light_choice::area_normal;
+    [[nodiscard]] bool is_default() const { return material == material_choice::marble && light == light_choice::area_normal; }
+};
+
 /// The translucent setting every method shares: material in scene units, light direction, bounds.
 struct setup {
     ss::material<float> mat;
@@ -28,7 +43,7 @@ struct setup {
     float radius = 1;
 };
 
-setup make_setup(const scene& s) {
+setup make_setup(const scene& s, look k = {}) {
     glm::vec3 lo(std::numeric_limits<float>::infinity()), hi(-lo);
     for (const glm::vec3& v : s.vertices) lo = glm::min(lo, v), hi = glm::max(hi, v);
     setup u;
@@ -36,7 +51,26 @@ setup make_setup(const scene& s) {
     u.center = 0.5f * (lo + hi);
     u.radius = std::max(0.5f * diag, 1e-6f);
     // One scene unit is scene_diagonal_mm / diag mm long.
-    u.mat = ss::presets::marble<float>().in_units(scene_diagonal_mm / std::max(diag, 1e-6f));
+    const ss::material<float> mm = k.material == material_choice::skim_milk ? ss::presets::skim_milk<float>() : ss::presets::marble<float>();
+    u.mat = mm.in_units(scene_diagonal_mm / std::max(diag, 1e-6f));
+    glm::vec3 view = s.view.target - s.view.position;
+    if (!(glm::length(view) > 0)) view = glm::vec3(0, 0, -1);
+    view = glm::normalize(view);
+    const glm::vec3 up = glm::length(s.view.up) > 0 ? glm::normalize(s.view.up) : glm::vec3(0, 1, 0);
+    if (k.light == light_choice::back) {
+        // Travelling towards the camera, level with the ground and tilted down by atan(0.35) ≈ 19°: straight
+        // along −view the light would travel upwards for a camera looking down, lighting the floor's underside
+        // and leaving the object in its shadow. Level, it crosses thin parts (the ears) which then glow.
+        glm::vec3 level = -view - glm::dot(-view, up) * up;
+        u.travel = glm::length(level) > 1e-3f ? glm::normalize(glm::normalize(level) - 0.35f * up) : -view;
+        return u;
+    }
+    if (k.light == light_choice::side) {  // travelling right to left across the picture
+        glm::vec3 right = glm::cross(view, up);
+        if (!(glm::length(right) > 1e-6f)) right = glm::cross(view, std::abs(view.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0));
+        u.travel = -glm::normalize(right);
+        return u;
+    }
     glm::vec3 n = s.light.normal();
     if (!(glm::length(n) > 0)) n = glm::normalize(u.center - s.light.center());
     if (glm::dot(n, u.center - s.light.center()) < 0) n = -n;  // travel from the light towards the scene
@@ -64,9 +98,9 @@ ss::gather_settings<float> settings_of(variant v, std::uint32_t samples, std::ui
     return g;
 }
 
-method_output render_gather(const render_inputs& in, variant v, std::uint32_t samples) {
+method_output render_gather(const render_inputs& in, variant v, std::uint32_t samples, look k = {}) {
     const std::size_t w = in.g.positions.width(), h = in.g.positions.height();
-    const setup u = make_setup(in.s);
+    const setup u = make_setup(in.s, k);
     method_output out;
     const auto t0 = clock_type::now();
     const auto proj = ss::orthographic_projection<float>::looking_along(u.travel, u.center, u.radius, map_resolution);
@@ -93,9 +127,9 @@ method_output render_gather(const render_inputs& in, variant v, std::uint32_t sa
 /// along the light's ray (the nearest hit through the BVH: the lit surface), density · |n·ω_l| per unit
 /// area there. Every lit surface point is reached by exactly one plane point, so within the disc of the
 /// gather's radius this is unbiased for the integral the gather approximates; no texels, no epsilons.
-method_output render_reference(const render_inputs& in, std::uint32_t samples, std::uint32_t seed, std::uint32_t pass) {
+method_output render_reference(const render_inputs& in, std::uint32_t samples, std::uint32_t seed, std::uint32_t pass, look k = {}) {
     const std::size_t w = in.g.positions.width(), h = in.g.positions.height();
-    const setup u = make_setup(in.s);
+    const setup u = make_setup(in.s, k);
     const ss::rgb_dipole d(u.mat);
     const ss::radius_sampler S(d, ss::default_gather_radius(d));
     const glm::vec3 wl = -u.travel;
@@ -185,6 +219,50 @@ method_family subsurface_methods() {
         m.render = [v](const render_inputs& in, double knob) { return render_gather(in, v, static_cast<std::uint32_t>(std::lround(knob))); };
         f.methods.push_back(std::move(m));
     }
+    // Variants of the material and the light (the translucent figures): aaf's default gather, each
+    // judged against the map-free reference with the same material and light (own_reference), so aaf-render's
+    // RMSE is honest and aaf-tradeoff, whose subsurface curves share the marble reference, leaves them out.
+    struct variant_entry {
+        const char* name;
+        look k;
+        const char* material;
+        const char* light;
+    };
+    const variant_entry variants[] = {
+        {"sss_profile_side", {material_choice::marble, light_choice::side}, "marble", "side"},
+        {"sss_profile_back", {material_choice::marble, light_choice::back}, "marble", "back"},
+        {"sss_profile_skim_milk", {material_choice::skim_milk, light_choice::area_normal}, "skim milk", "area light's normal"},
+        {"sss_profile_skim_milk_side", {material_choice::skim_milk, light_choice::side}, "skim milk", "side"},
+        {"sss_profile_skim_milk_back", {material_choice::skim_milk, light_choice::back}, "skim milk", "back"},
+    };
+    for (const variant_entry& e : variants) {
+        method m;
+        m.name = e.name;
+        m.family = "subsurface";
+        m.what = quantity::subsurface;
+        m.knob = "samples";
+        m.sweep = sweep;
+        m.default_knob = 150;
+        m.help = std::string("sss_profile in ") + e.material + ", lit from the " + e.light +
+                 " (judged against its own reference with the same material and light; not in aaf-tradeoff)";
+        const char* light_text = e.k.light == light_choice::side   ? "directional, perpendicular to the view direction (from the camera's right)"
+                                 : e.k.light == light_choice::back ? "directional, from behind the object towards the camera, level, tilted 19 degrees down"
+                                                                   : "directional along the area light's normal, irradiance 1";
+        m.settings = {{"material", std::string(e.material) + ", scene diagonal = 300 mm"},
+                      {"light", light_text},
+                      {"map", "orthographic 512^2"},
+                      {"sampling", "profile"},
+                      {"exposure", exposure}};
+        const look k = e.k;
+        m.render = [k](const render_inputs& in, double knob) {
+            return render_gather(in, variant::profile, static_cast<std::uint32_t>(std::lround(knob)), k);
+        };
+        m.own_reference = [k](const render_inputs& in, std::uint32_t samples, std::uint32_t seed) {
+            return render_reference(in, samples, seed, 1000, k).image;
+        };
+        f.methods.push_back(std::move(m));
+    }
+
     method mc;
     mc.name = "mc_subsurface";
     mc.family = "mc";

@@ -134,7 +134,11 @@ std::vector<const method*> select_methods(const config& c, const std::string& ba
         if (named && m.what != c.what)
             throw usage_error("method '" + m.name + "' estimates " + to_string(m.what) + ", not " + to_string(c.what) +
                               " (choose it with --quantity " + to_string(m.what) + ")");
-        if (m.what != c.what || !(c.methods.empty() || named)) continue;
+        if (named && m.own_reference)
+            throw usage_error("method '" + m.name + "' renders a variant of " + to_string(m.what) +
+                              " judged against its own reference, which aaf-tradeoff's shared reference is not (use aaf-render --method " +
+                              m.name + ")");
+        if (m.what != c.what || !(c.methods.empty() || named) || m.own_reference) continue;
         selected.push_back(&m);
         any_filtered |= !m.doubling_sweep;
     }
@@ -149,7 +153,7 @@ std::vector<const method*> select_methods(const config& c, const std::string& ba
 std::vector<std::string> method_names(quantity what) {
     std::vector<std::string> n;
     for (const method& m : all_methods())
-        if (m.what == what) n.push_back(m.name);
+        if (m.what == what && !m.own_reference) n.push_back(m.name);
     return n;
 }
 

@@ -68,6 +68,7 @@ method peer_method(std::string name, peer p, std::string description) {
         .help = description,
         .settings = peer_json(p, description),
         .render = {},
+        .own_reference = {},
     };
     m.render = [p](const render_inputs& in, double knob) {
         const auto spp = static_cast<std::uint32_t>(knob);
@@ -123,6 +124,7 @@ method progressive_method() {
         .help = "progressive aaf (aaf::progressive_shadow): 9 samples per pass, per-pixel mu matched to its samples; knob = passes",
         .settings = std::move(j),
         .render = {},
+        .own_reference = {},
     };
     m.render = [](const render_inputs& in, double knob) {
         const gbuffer_images& g = in.g;

@@ -1,17 +1,19 @@
 // SPDX-License-Identifier: MIT
 // The subsurface family of the examples' registry (examples/common/subsurface_methods.*) on the boxes scene,
 // judged against the family's map-free Monte Carlo reference: the write-up's fixes lower the error, and more
-// samples per pixel lower it too.
+// samples per pixel lower it too; the material and light variants are judged against their own reference.
 
 #include <catch2/catch.hpp>
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "common/bvh.hpp"
 #include "common/methods.hpp"
 #include "common/render_support.hpp"
 #include "common/scene.hpp"
+#include "common/tradeoff.hpp"
 
 using namespace aaf_examples;
 
@@ -71,4 +73,42 @@ TEST_CASE("subsurface methods: the fixes beat no fixes, and the error falls with
     INFO("profile 8 samples " << p8 << "; Monte Carlo 8 " << mc8 << ", 150 " << mc150);
     CHECK(profile < p8);
     CHECK(mc150 < mc8);
+}
+
+TEST_CASE("subsurface methods: material and light variants are judged against their own reference", "[subsurface]") {
+    // The family: five write-up/aaf gathers in marble under the quantity's light, five variants of sss_profile
+    // (skim milk, side and back light), and the Monte Carlo baseline.
+    std::size_t family = 0, variants = 0;
+    for (const method& m : all_methods())
+        if (m.what == quantity::subsurface) {
+            INFO(m.name);
+            ++family;
+            if (!m.own_reference) continue;
+            ++variants;
+            CHECK(m.name.rfind("sss_profile_", 0) == 0);
+        }
+    CHECK(family == 11);
+    CHECK(variants == 5);
+    // aaf-tradeoff's curves share the quantity's (marble) reference: the variants are not among them.
+    for (const std::string& n : tradeoff::method_names(quantity::subsurface)) CHECK(!find_method(n).own_reference);
+
+    // A variant's own reference is the Monte Carlo integral with its material and light: the back-lit skim milk
+    // gather is closer to it than to the quantity's marble reference, which it does not estimate.
+    scene s = load_scene("boxes", {});
+    s.width = 40, s.height = 30;
+    s.validate();
+    aaf::thread_pool pool(2);
+    const bvh tracer(s.vertices, s.triangles);
+    const scene_tracer any(tracer);
+    const gbuffer_images g = render_gbuffer(s, tracer, pool);
+    REQUIRE(g.surfaces > 0);
+    const render_inputs in{.s = s, .tracer = any, .g = g, .pool = pool, .seed = 3};
+    const std::vector<unsigned char> mask = g.surface_mask();
+    const method& m = find_method("sss_profile_skim_milk_back");
+    const aaf::image<float> img = m.render(in, 64).image;
+    const aaf::image<float> own = m.own_reference(in, 256, 11);
+    const aaf::image<float> marble = find_reference(quantity::subsurface).render(in, 256, 11).image;
+    const double e_own = rmse(img, own, mask), e_marble = rmse(img, marble, mask);
+    INFO("RMSE against its own reference " << e_own << ", against the marble reference " << e_marble);
+    CHECK(e_own < e_marble);
 }
