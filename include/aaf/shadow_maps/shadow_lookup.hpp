@@ -15,7 +15,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -139,6 +141,7 @@ public:
         const std::uint32_t side = detail::grid_side(settings.pcf.taps);
         for (std::uint32_t a = 0; a < side; ++a) grid_1d_.push_back(taps_[a].x);  // the first row's x = every row's
         blocker_taps_ = detail::grid_offsets<T>(settings.pcss.blocker_taps);
+        for (std::size_t k = 0; k <= taps_.size(); ++k) grid_lit_.push_back(T(1) - static_cast<T>(k) / static_cast<T>(taps_.size()));
     }
 
     [[nodiscard]] const depth_map_view<T>& map() const noexcept { return map_; }
@@ -172,6 +175,50 @@ public:
         return penumbra(r.depth, d_blocker);
     }
 
+    /// The continuous texel coordinates of `p` in the map (no bias, no normal offset); false when `p` is not
+    /// finite or behind a perspective light. For passes that pick their pixel order from the map's layout.
+    [[nodiscard]] bool texel_position(const glm::vec<3, T>& p, glm::vec<2, T>& uv) const noexcept {
+        if (!detail::finite3(p)) return false;
+        const glm::vec<3, T> l = frame_.to_light(p);
+        if (frame_.perspective() && !(l.z > T(0))) return false;
+        uv = frame_.texel_coords(l, map_.width(), map_.height());
+        return detail::finite3(glm::vec<3, T>(uv, T(0)));
+    }
+
+    /// Asks the processor to start fetching the map texels that lookups at receivers near `points` will
+    /// read (the bounding box of their texel coordinates, widened by the kernel's reach); non-finite points
+    /// and points behind a perspective light are skipped. Changes no result: for passes, which know their
+    /// next pixels before they need them, so that the map's cache misses overlap the work on earlier pixels
+    /// instead of stalling it (the map is usually far larger than the caches). Regions above 64 KiB are not
+    /// fetched: a block of pixels whose receivers spread that far gains nothing from it.
+    void prefetch_around(std::span<const glm::vec<3, T>> points) const noexcept {
+#if defined(__GNUC__) || defined(__clang__)
+        T u0 = std::numeric_limits<T>::infinity(), v0 = u0, u1 = -u0, v1 = -u0;
+        for (const glm::vec<3, T>& p : points) {
+            if (!detail::finite3(p)) continue;
+            const glm::vec<3, T> l = frame_.to_light(p);
+            if (frame_.perspective() && !(l.z > T(0))) continue;
+            const glm::vec<2, T> uv = frame_.texel_coords(l, map_.width(), map_.height());
+            u0 = std::min(u0, uv.x), u1 = std::max(u1, uv.x), v0 = std::min(v0, uv.y), v1 = std::max(v1, uv.y);
+        }
+        const T reach = (settings_.filter == shadow_filter::pcss ? std::min(settings_.pcss.max_radius, T(16)) : settings_.pcf.radius) + T(2);
+        const T w = static_cast<T>(map_.width()), h = static_cast<T>(map_.height());
+        // Also false for an empty box (no usable point) and NaN.
+        if (!(u1 + reach >= T(0) && u0 - reach < w && v1 + reach >= T(0) && v0 - reach < h)) return;
+        const auto i0 = static_cast<std::size_t>(std::max(u0 - reach, T(0))), i1 = static_cast<std::size_t>(std::min(u1 + reach, w - T(1)));
+        const auto j0 = static_cast<std::size_t>(std::max(v0 - reach, T(0))), j1 = static_cast<std::size_t>(std::min(v1 + reach, h - T(1)));
+        if ((i1 - i0 + 1) * (j1 - j0 + 1) * map_.depth.pixel_stride() > (std::size_t{64} << 10)) return;
+        for (std::size_t j = j0; j <= j1; ++j) {
+            const auto* first = reinterpret_cast<const char*>(&map_.depth(i0, j));
+            const auto* last = reinterpret_cast<const char*>(&map_.depth(i1, j));
+            for (const char* a = first; a <= last; a += 64) __builtin_prefetch(a);
+            __builtin_prefetch(last);
+        }
+#else
+        (void)points;
+#endif
+    }
+
 private:
     [[nodiscard]] detail::prepared_receiver<T> prepare(const glm::vec<3, T>& p, const glm::vec<3, T>& n) const noexcept {
         return detail::prepare_receiver(frame_, map_.width(), map_.height(), map_.format, settings_.bias, p, n);
@@ -194,33 +241,51 @@ private:
     /// The N×N grid without bilinear weights, separably: a grid's taps share N columns and N rows, so the column
     /// and row indices, bounds and bias terms are computed 2N times instead of N² (threshold(i, j) is a sum of a
     /// column term and a row term), and each tap is a load and a comparison. Same taps as the general loop.
+    /// `max_side` = 4 instantiates the default 4×4 grid with arrays and loops of fixed size, which the
+    /// compiler unrolls (the general one, sized for 64×64, kept spilling its arrays through the stack).
+    template <std::size_t max_side = 64>  // taps <= 4096
     [[nodiscard]] T pcf_grid(const detail::prepared_receiver<T>& r, T ru, T rv) const noexcept {
-        constexpr std::size_t max_side = 64;  // taps <= 4096
         std::size_t cols[max_side], rows[max_side];
         T col_term[max_side], row_term[max_side];
         std::size_t nc = 0, nr = 0;
         const auto w = static_cast<std::ptrdiff_t>(map_.width()), h = static_cast<std::ptrdiff_t>(map_.height());
-        for (const T o : grid_1d_) {
+        for (std::size_t k = 0; k < max_side && k < grid_1d_.size(); ++k) {
+            const T o = grid_1d_[k];
             const auto i = static_cast<std::ptrdiff_t>(std::floor(r.u + ru * o));
             if (i < 0 || i >= w) continue;  // outside the map: lit
             const T du = static_cast<T>(i) + T(0.5) - r.u;
             cols[nc] = static_cast<std::size_t>(i), col_term[nc++] = r.su * du - r.au * std::abs(du);
         }
-        for (const T o : grid_1d_) {
+        for (std::size_t k = 0; k < max_side && k < grid_1d_.size(); ++k) {
+            const T o = grid_1d_[k];
             const auto j = static_cast<std::ptrdiff_t>(std::floor(r.v + rv * o));
             if (j < 0 || j >= h) continue;
             const T dv = static_cast<T>(j) + T(0.5) - r.v;
             rows[nr] = static_cast<std::size_t>(j), row_term[nr++] = r.z - r.c0 + r.sv * dv - r.av * std::abs(dv);
         }
         std::size_t occluded = 0;
+        // The usual case, a 4×4 grid of radius 2 away from the map's edges: its columns are 4 consecutive
+        // texels, so each grid row is 4 neighbouring floats of a packed map row, compared with fixed trip
+        // counts the compiler turns into one vector load and compare. Same operands and operations as below,
+        // so the same bits.
+        if (max_side == 4 && nc == 4 && cols[3] == cols[0] + 3 && map_.depth.pixel_stride() == sizeof(float)) {
+            const T c0 = col_term[0], c1 = col_term[1], c2 = col_term[2], c3 = col_term[3];
+            for (std::size_t b = 0; b < nr; ++b) {
+                const float* t = &map_.depth(cols[0], rows[b]);
+                const T th = row_term[b];
+                occluded += static_cast<std::size_t>(static_cast<T>(t[0]) < th + c0) + static_cast<std::size_t>(static_cast<T>(t[1]) < th + c1) +
+                            static_cast<std::size_t>(static_cast<T>(t[2]) < th + c2) + static_cast<std::size_t>(static_cast<T>(t[3]) < th + c3);
+            }
+            return grid_lit_[occluded];
+        }
         for (std::size_t b = 0; b < nr; ++b)
             for (std::size_t a = 0; a < nc; ++a) occluded += static_cast<T>(map_.depth(cols[a], rows[b])) < row_term[b] + col_term[a] ? 1 : 0;
-        return T(1) - static_cast<T>(occluded) / static_cast<T>(taps_.size());
+        return grid_lit_[occluded];
     }
 
     /// Lit fraction over the taps scaled by (ru, rv) texels around the receiver.
     [[nodiscard]] T pcf(const detail::prepared_receiver<T>& r, T ru, T rv, const sample_key& key) const noexcept {
-        if (settings_.pcf.pattern == pcf_pattern::grid && !settings_.pcf.bilinear) return pcf_grid(r, ru, rv);
+        if (settings_.pcf.pattern == pcf_pattern::grid && !settings_.pcf.bilinear) return grid_1d_.size() == 4 ? pcf_grid<4>(r, ru, rv) : pcf_grid(r, ru, rv);
         T c = 1, s = 0;
         if (settings_.pcf.pattern == pcf_pattern::rotated_poisson) {
             glm::vec<2, T> xi;
@@ -302,7 +367,27 @@ private:
     light_frame<T> frame_;
     std::vector<glm::vec<2, T>> taps_, blocker_taps_;
     std::vector<T> grid_1d_;  ///< the grid's N offsets along one axis
+    std::vector<T> grid_lit_;  ///< [k] = 1 − k/taps, the grid's result with k occluded taps (no division per pixel)
 };
+
+namespace detail {
+/// Whether a step along a frame row moves further along the map's rows (u) than across them (v), judged
+/// from neighbouring pixels on a few rows (sky and receivers behind the light are skipped; none: false).
+/// Only chooses the pass's pixel order, never a result.
+template <class T>
+[[nodiscard]] bool frame_rows_along_map_rows(const shadow_map_sampler<T>& sampler, const const_image_view<glm::vec<3, T>>& positions) noexcept {
+    const std::size_t w = positions.width(), h = positions.height();
+    if (w < 2) return false;
+    T du = 0, dv = 0;
+    for (std::size_t k = 1; k <= 7; ++k) {
+        const std::size_t y = h * k / 8, x = (w - 1) * k / 8;
+        glm::vec<2, T> a, b;
+        if (!sampler.texel_position(positions(x, y), a) || !sampler.texel_position(positions(x + 1, y), b)) continue;
+        du += std::abs(b.x - a.x), dv += std::abs(b.y - a.y);
+    }
+    return du > dv;
+}
+}  // namespace detail
 
 /// The shadow-map lookup pass: writes each pixel's lit fraction (see the top of this header) into
 /// `visibility`. G-buffer as the core's (gather.hpp; pixel_size and ids are not read). Rows run on `exec`;
@@ -319,18 +404,37 @@ void shadow_lookup(const depth_map_view<T>& map, const gbuffer<T, Ids>& gb, cons
     detail::require_depth_map(fn, map);
     detail::validate_lookup(fn, settings, map.view.projection);
     const shadow_map_sampler<T> sampler(map, settings);
-    // Pixels in 8×8 blocks, bands of 8 rows per task: neighbouring pixels read overlapping texels, and a block
-    // keeps them in cache whatever the map's orientation to the frame (row by row, a map whose rows run across
-    // the frame's would touch a new cache line per tap). Each pixel's value is independent of the order.
+    // Pixels in bands of 8 rows per task, in one of two orders (each pixel's value is independent of the
+    // order). When the frame's rows run along the map's rows, row by row: a pixel row then reads the same
+    // few map rows from left to right, streams the hardware prefetcher follows, which stay in L1. Otherwise
+    // in 8×8 blocks: row by row, a map whose rows run across the frame's would touch a new cache line per
+    // tap, and a block keeps its texels in cache. Blocks read ~20 map rows at once; with a power-of-two map
+    // pitch (a 2048-texel row is 8 KiB) those all fall in the same L1 sets, which is why row order wins
+    // when the orientation allows it. Blocks prefetch the texels of the block after next
+    // (prefetch_around), so those misses overlap the work on the two blocks before it.
     constexpr std::size_t block = 8;
+    const bool row_order = detail::frame_rows_along_map_rows(sampler, gb.positions);
     exec.parallel_for((h + block - 1) / block, [&](std::size_t b0, std::size_t b1) {
+        const auto one = [&](std::size_t x, std::size_t y) {
+            visibility(x, y) = sampler.visibility(gb.positions(x, y), gb.normals(x, y),
+                                                  pixel_key(region, x, y, 0, settings.light_index, settings.frame_seed));
+        };
         for (std::size_t b = b0; b < b1; ++b) {
             const std::size_t y0 = b * block, y1 = std::min(y0 + block, h);
-            for (std::size_t x0 = 0; x0 < w; x0 += block)
+            if (row_order) {
                 for (std::size_t y = y0; y < y1; ++y)
-                    for (std::size_t x = x0, x1 = std::min(x0 + block, w); x < x1; ++x)
-                        visibility(x, y) = sampler.visibility(gb.positions(x, y), gb.normals(x, y),
-                                                              pixel_key(region, x, y, 0, settings.light_index, settings.frame_seed));
+                    for (std::size_t x = 0; x < w; ++x) one(x, y);
+                continue;
+            }
+            for (std::size_t x0 = 0; x0 < w; x0 += block) {
+                if (const std::size_t xa = x0 + 2 * block; xa < w) {
+                    const std::size_t xb = std::min(xa + block, w) - 1, yb = y1 - 1;
+                    const glm::vec<3, T> corners[4] = {gb.positions(xa, y0), gb.positions(xb, y0), gb.positions(xa, yb), gb.positions(xb, yb)};
+                    sampler.prefetch_around(corners);
+                }
+                for (std::size_t y = y0; y < y1; ++y)
+                    for (std::size_t x = x0, x1 = std::min(x0 + block, w); x < x1; ++x) one(x, y);
+            }
         }
     });
 }
