@@ -182,6 +182,18 @@ method_output render_reference(const render_inputs& in, std::uint32_t samples, s
 method_family subsurface_methods() {
     method_family f;
     const std::vector<double> sweep{8, 16, 32, 64, 150, 300};
+    // What every gather method of the family shares: a sample count as the knob, 150 by default (the write-up's).
+    const auto gather_method = [&sweep](std::string name, std::string help) {
+        method m;
+        m.name = std::move(name);
+        m.family = "subsurface";
+        m.what = quantity::subsurface;
+        m.knob = "samples";
+        m.sweep = sweep;
+        m.default_knob = 150;
+        m.help = std::move(help);
+        return m;
+    };
     struct entry {
         const char* name;
         variant v;
@@ -196,14 +208,7 @@ method_family subsurface_methods() {
         {"sss_profile", variant::profile, "subsurface, aaf's default: radii drawn from R_d, all fixes"},
     };
     for (const entry& e : entries) {
-        method m;
-        m.name = e.name;
-        m.family = "subsurface";
-        m.what = quantity::subsurface;
-        m.knob = "samples";
-        m.sweep = sweep;
-        m.default_knob = 150;
-        m.help = e.help;
+        method m = gather_method(e.name, e.help);
         const ss::gather_settings<float> g = settings_of(e.v, 150, 0);
         m.settings = {{"material", "marble, scene diagonal = 300 mm"},
                       {"light", "directional along the area light's normal, irradiance 1"},
@@ -236,15 +241,8 @@ method_family subsurface_methods() {
         {"sss_profile_skim_milk_back", {material_choice::skim_milk, light_choice::back}, "skim milk", "back"},
     };
     for (const variant_entry& e : variants) {
-        method m;
-        m.name = e.name;
-        m.family = "subsurface";
-        m.what = quantity::subsurface;
-        m.knob = "samples";
-        m.sweep = sweep;
-        m.default_knob = 150;
-        m.help = std::string("sss_profile in ") + e.material + ", lit from the " + e.light +
-                 " (judged against its own reference with the same material and light; not in aaf-tradeoff)";
+        method m = gather_method(e.name, std::string("sss_profile in ") + e.material + ", lit from the " + e.light +
+                                             " (judged against its own reference with the same material and light; not in aaf-tradeoff)");
         const char* light_text = e.k.light == light_choice::side   ? "directional, perpendicular to the view direction (from the camera's right)"
                                  : e.k.light == light_choice::back ? "directional, from behind the object towards the camera, level, tilted 19 degrees down"
                                                                    : "directional along the area light's normal, irradiance 1";
