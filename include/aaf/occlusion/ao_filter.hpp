@@ -179,6 +179,13 @@ void ao_direct_filter(const G& g, const_image_view<T> pixel_size, const image<T>
     });
 }
 
+/// A G-buffer normal as the AO filter's guides want it: unit length, or NaN where it has no direction, so
+/// that it rejects every neighbour and is rejected by them.
+template <class T>
+[[nodiscard]] glm::vec<3, T> ao_guide_normal(const glm::vec<3, T>& unit_or_zero) noexcept {
+    return unit_or_zero == glm::vec<3, T>(0) ? glm::vec<3, T>(std::numeric_limits<T>::quiet_NaN()) : unit_or_zero;
+}
+
 /// For rejection_boost: per pixel, the fraction f of its filter window (the separable filter's square of
 /// kernel_radius(β/d) pixels, clipped to the image) whose pixels the guides reject. Windows wider than
 /// 8 pixels are visited on a stride of ⌈r/8⌉ so a pixel costs at most 17² tests (departure from an
@@ -246,7 +253,7 @@ void filter_ambient_occlusion(const gbuffer<T, Ids>& gb, const_image_view<ao_sta
         for (std::size_t x = 0; x < w; ++x) {
             const ao_stats<T>& r = stats(x, y);
             const glm::vec<3, T> n = detail::ao_unit_or_zero(gb.normals(x, y));
-            normals(x, y) = n == glm::vec<3, T>(0) ? glm::vec<3, T>(nan) : n;  // NaN normals reject as guides
+            normals(x, y) = detail::ao_guide_normal(n);
             vis(x, y) = r.visibility();
             beta(x, y) = std::isfinite(vis(x, y)) ? ao_filter_width(r.z_min, s) : T(0);
             if (with_bent) {
@@ -371,8 +378,7 @@ std::uint64_t render_ambient_occlusion(const gbuffer<T, Ids>& gb, const Tracer& 
             image<glm::vec<3, T>> normals(w, h);
             for (std::size_t y = 0; y < h; ++y)
                 for (std::size_t x = 0; x < w; ++x) {
-                    const glm::vec<3, T> n = detail::ao_unit_or_zero(gb.normals(x, y));
-                    normals(x, y) = n == glm::vec<3, T>(0) ? glm::vec<3, T>(std::numeric_limits<T>::quiet_NaN()) : n;
+                    normals(x, y) = detail::ao_guide_normal(detail::ao_unit_or_zero(gb.normals(x, y)));
                     beta(x, y) = stats(x, y).samples == 0 ? T(0) : ao_filter_width(stats(x, y).z_min, s.filter);
                 }
             rejected.reset(w, h);
