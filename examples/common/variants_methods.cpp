@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <limits>
+#include <algorithm>
 #include <string>
 #include <utility>
 
@@ -153,6 +155,66 @@ method progressive_method() {
     return m;
 }
 
+/// The sheared filter (aaf::render_sheared, variants/sheared.hpp): `knob` samples per pixel kept with their
+/// light coordinates; pixels whose s1/s2 exceeds `ratio` (or that are pixel-limited, or have no slopes but
+/// occluders nearby) fall back to aaf with its adaptive samples at mu = 2 (max 100); ratio +inf = never.
+method sheared_method(std::string name, float ratio, std::string description) {
+    aaf::sheared_settings<float> base;
+    base.max_slope_ratio = ratio;
+    json j;
+    j["description"] = description;
+    j["knob"] = "initial_samples (samples stored per pixel, stratified)";
+    j["max_slope_ratio"] = std::isinf(ratio) ? json("inf") : json(ratio);
+    j["shear_tolerance"] = base.shear_tolerance;
+    j["bins_per_light_width"] = base.bins;
+    j["bin_margin"] = base.bin_margin;
+    j["max_radius"] = base.max_radius;
+    j["mu"] = base.frame.formulas.mu;
+    j["k"] = base.frame.formulas.k;
+    j["fallback"] = "aaf: adaptive visibility samples n(mu), max 100, image-space offsets, normal and ID guides";
+    j["guides"] = {"normals", "ids"};
+    j["tracer"] = "BVH nearest and farthest occluder";
+    method m{
+        .name = std::move(name),
+        .family = "variants",
+        .what = quantity::shadow,
+        .knob = "initial_samples",
+        .sweep = {1, 2, 4, 9, 16, 25},
+        .quick_sweep = {1, 4},
+        .doubling_sweep = false,
+        .default_knob = 4,
+        .help = description,
+        .settings = std::move(j),
+        .render = {},
+        .own_reference = {},
+    };
+    m.render = [base](const render_inputs& in, double knob) {
+        const gbuffer_images& g = in.g;
+        const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{g.positions.cview(), g.normals.cview(), g.pixel_size.cview(),
+                                                                          g.ids.cview()};
+        aaf::sheared_settings<float> s = base;
+        s.frame.sampling.initial_samples = static_cast<std::uint32_t>(knob);
+        s.frame.sampling.max_samples = std::max<std::uint32_t>(100, s.frame.sampling.initial_samples);
+        s.frame.sampling.frame_seed = in.seed;
+        s.frame.radiance = in.s.radiance;
+        aaf::sheared_workspace<float> ws;
+        method_output out;
+        out.image = aaf::image<float>(in.s.width, in.s.height);
+        const aaf::frame_report r = aaf::render_sheared(gb, in.s.light, in.tracer, {out.image.view()}, ws, s, in.pool);
+        std::size_t centres = 0;
+        for (std::size_t i = 0; i < ws.shears.size(); ++i) centres += ws.shears.data()[i].center ? 1 : 0;
+        out.total_ms = r.total_ms;
+        out.rays = r.rays();
+        out.stages_ms = {{"rays", r.initial_ms + r.adaptive_ms}, {"formulas", r.formulas_ms}, {"filter", r.filter_ms}};
+        out.point_settings = {{"initial_samples", s.frame.sampling.initial_samples},
+                              {"sheared_pixels", centres},
+                              {"sample_bytes", ws.samples.bytes()},
+                              {"bin_bytes", ws.bins.size() * sizeof(ws.bins[0])}};
+        return out;
+    };
+    return m;
+}
+
 peer atrous_peer(std::uint32_t iterations, float luminance_sigma) {
     peer p;
     p.atrous.iterations = iterations;
@@ -187,6 +249,12 @@ method_family variant_methods() {
                     "stratified MC at spp, then a joint bilateral filter (sigma 1 px, normal/plane/ID stops; the best "
                     "bilateral width on cornell and plant)"),
         progressive_method(),
+        sheared_method("aaf_sheared", 2.0f,
+                       "sheared filter (Yan et al. 2015, FORMULAS 9.3) on pixels with s1/s2 <= 2, aaf with adaptive samples "
+                       "elsewhere; knob = samples per pixel kept"),
+        sheared_method("aaf_sheared_r1.25", 1.25f, "as aaf_sheared, falling back to aaf where s1/s2 > 1.25"),
+        sheared_method("aaf_sheared_all", std::numeric_limits<float>::infinity(),
+                       "as aaf_sheared without the fallback on s1/s2 (sheared wherever the wedge is not pixel-limited)"),
     };
     const char* sweep = std::getenv("AAF_VARIANTS_SWEEP");
     if (sweep != nullptr && std::string(sweep) == "1") {

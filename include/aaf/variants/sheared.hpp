@@ -1,0 +1,559 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+// Sheared filtering of soft shadows, factored into two image passes (after Yan, Mehta, Ramamoorthi,
+// Durand 2015, "fast 4D sheared filtering"; reconstruction in FORMULAS.md §9.1 and §9.3, the paper's body
+// could not be read). Where the axis-aligned filter keeps each pixel's *visibility* and blurs it, the
+// sheared filter keeps each *sample* (its light coordinate and whether it reached the light) and reuses a
+// neighbour's samples for the centre by moving them along the shear: a neighbour at light-plane offset Δ,
+// looking through light point y′, sees the same occluder point as the centre through y′ − cΔ (c = 1/s of
+// the occluder). On a single occluder depth every neighbour's samples are then samples of the centre's own
+// visibility integral, so a few samples per pixel suffice. Where occluders at several depths overlap the
+// spectrum leaves the wedge (§9.1, §9.5) and the shear is wrong for part of the samples: there (s1/s2
+// above sheared_settings::max_slope_ratio, or a pixel-limited wedge) the pixel falls back to aaf's
+// axis-aligned filter with its adaptive samples (render_sheared).
+//
+// Memory (what the abstract calls FSF's "high-dimensional data storage"): every sample is kept,
+// sizeof(light_sample<T>) = 12 bytes in float per sample (u, v and a state byte); the row pass keeps
+// bins² × 4 values per pixel (sheared_workspace::bins). At 320×240, 4 samples and the default 8×8 bins:
+// 3.7 MB of samples and 19.7 MB of bins (16 spp: 14.7 MB of samples); aaf's own frame keeps one
+// occlusion_stats (28 bytes) per pixel.
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "../area_light.hpp"
+#include "../executor.hpp"
+#include "../filter.hpp"
+#include "../formulas.hpp"
+#include "../gather.hpp"
+#include "../guides.hpp"
+#include "../image.hpp"
+#include "../occlusion_stats.hpp"
+#include "../pipeline.hpp"
+#include "../ray_offset.hpp"
+#include "../region.hpp"
+#include "../sampler.hpp"
+#include "../settings.hpp"
+#include "../tracer.hpp"
+
+namespace aaf {
+inline namespace v0 {
+
+/// What became of one stored sample.
+enum class sample_state : std::uint8_t {
+    unused = 0,   ///< not traced (below the horizon, behind the light) or failed: no weight anywhere
+    blocked = 1,  ///< an occluder lies between the receiver and the light point
+    visible = 2,  ///< the light point is visible
+};
+
+/// One stored shadow sample: its light point `area_light::point(u, v)` and what the ray found.
+template <class T = float>
+struct light_sample {
+    T u = 0, v = 0;  ///< light parameters in [0, 1)²
+    sample_state state = sample_state::unused;
+};
+
+/// Every pixel's samples, `samples_per_pixel` of them each, row-major (the sheared filter's input).
+template <class T = float>
+class light_sample_buffer {
+public:
+    /// Sizes the buffer for w×h pixels with `spp` samples each; every sample unused.
+    void reset(std::size_t w, std::size_t h, std::uint32_t spp) {
+        w_ = w, h_ = h, spp_ = spp;
+        data_.assign(w * h * spp, light_sample<T>{});
+    }
+    [[nodiscard]] std::size_t width() const noexcept { return w_; }
+    [[nodiscard]] std::size_t height() const noexcept { return h_; }
+    [[nodiscard]] std::uint32_t samples_per_pixel() const noexcept { return spp_; }
+    /// Bytes held (the memory cost the header comment quotes).
+    [[nodiscard]] std::size_t bytes() const noexcept { return data_.size() * sizeof(light_sample<T>); }
+    [[nodiscard]] std::span<light_sample<T>> pixel(std::size_t x, std::size_t y) noexcept {
+        return {data_.data() + (y * w_ + x) * spp_, spp_};
+    }
+    [[nodiscard]] std::span<const light_sample<T>> pixel(std::size_t x, std::size_t y) const noexcept {
+        return {data_.data() + (y * w_ + x) * spp_, spp_};
+    }
+
+private:
+    std::size_t w_ = 0, h_ = 0;
+    std::uint32_t spp_ = 0;
+    std::vector<light_sample<T>> data_;
+};
+
+/// A pixel's shear (FORMULAS.md §9.1): `c` = ½(1/s1 + 1/s2), the light-plane shift per unit of receiver
+/// offset (dimensionless; NaN = the pixel has no slopes); `beta` = 1/(k·w), the spatial Gaussian's standard
+/// deviation in world units on the light plane, with w = (μΩ_L/2)(1/s2 − 1/s1) the wedge's half-width
+/// (+∞ for a single depth, s1 = s2); `center` = the sheared filter (not aaf's) gives this pixel's output.
+template <class T = float>
+struct shear {
+    T c = std::numeric_limits<T>::quiet_NaN();
+    T beta = 0;
+    bool center = false;
+    [[nodiscard]] bool has_slopes() const noexcept { return std::isfinite(c); }
+};
+
+/// Settings of the sheared filter and of render_sheared.
+template <class T = float>
+struct sheared_settings {
+    /// `sampling.initial_samples`: the samples kept per pixel (the sheared pixels get no more); `formulas`
+    /// (k, μ, α) for both filters; `filter` for aaf's filter on the fallback pixels and for slope spreading,
+    /// the normal threshold and the truncation (in units of β) of the sheared one; `sampling.adaptive`:
+    /// fallback pixels get aaf's adaptive samples n(μ), capped at `sampling.max_samples`.
+    frame_settings<T> frame{};
+    /// s1/s2 above which a pixel falls back to aaf: there occluders at several depths overlap and the
+    /// sheared filter has a bias floor (FORMULAS.md §9.3 table); [1, ∞], +∞ = never fall back.
+    T max_slope_ratio = T(2);
+    /// A neighbour whose c differs from the centre's by more than this fraction of it is rejected (its
+    /// samples would be moved along the wrong shear, §9.5); [0, ∞], +∞ = no test.
+    T shear_tolerance = T(0.5);
+    /// Bins per light width and axis of the row pass's reprojected samples; [1, 32]. Each bin keeps the
+    /// weighted mean of its samples' coordinates, so a bin of one sample is exact.
+    std::uint32_t bins = 4;
+    /// Light widths the bins extend beyond the light on each side (a sample moved off the light by the row
+    /// pass may be moved back by the column pass); [0, 2].
+    T bin_margin = T(0.5);
+    /// Cap on the kernel radius in pixels (each pass); [0, 64].
+    std::uint32_t max_radius = 12;
+};
+
+/// Throws aaf::invalid_argument naming the first invalid field.
+template <class T>
+void validate(const sheared_settings<T>& s, const char* function = "validate") {
+    validate(s.frame, function);
+    if (!(s.max_slope_ratio >= T(1)))
+        detail::throw_invalid(function, "`settings.max_slope_ratio` must be in [1, inf] (got " + std::to_string(s.max_slope_ratio) + ")");
+    if (!(s.shear_tolerance >= T(0)))
+        detail::throw_invalid(function, "`settings.shear_tolerance` must be in [0, inf] (got " + std::to_string(s.shear_tolerance) + ")");
+    if (s.bins < 1 || s.bins > 32) detail::throw_invalid(function, "`settings.bins` must be in [1, 32] (got " + std::to_string(s.bins) + ")");
+    if (!(s.bin_margin >= T(0) && s.bin_margin <= T(2)))
+        detail::throw_invalid(function, "`settings.bin_margin` must be in [0, 2] (got " + std::to_string(s.bin_margin) + ")");
+    if (s.max_radius > 64) detail::throw_invalid(function, "`settings.max_radius` must be in [0, 64] (got " + std::to_string(s.max_radius) + ")");
+}
+
+/// A pixel's shear from its slopes (FORMULAS.md §9.1), σ of the light and its footprint d. Not a
+/// `center` (aaf's filter instead) when: no slopes; s2 = 0 (contact: c → ∞, nothing to reuse); σ = 0;
+/// s1/s2 > max_slope_ratio; or the wedge is pixel-limited, 2w·d > α (one primary ray per pixel would alias
+/// the pixel-grid replicas, §9.3 "Sampling rate").
+template <class T>
+[[nodiscard]] shear<T> shear_of(const slope_pair<T>& s, T sigma, T pixel_size, const sheared_settings<T>& set) noexcept {
+    shear<T> r;
+    if (!s.has_occluder() || !(s.s2 > T(0)) || !std::isfinite(s.s1) || !(sigma > T(0)) || !std::isfinite(sigma)) return r;
+    const formula_settings<T>& f = set.frame.formulas;
+    const T inv1 = T(1) / s.s1, inv2 = T(1) / s.s2;
+    r.c = T(0.5) * (inv1 + inv2);
+    const T w = f.mu / sigma * T(0.5) * std::max(inv2 - inv1, T(0));
+    r.beta = w > T(0) ? T(1) / (f.k * w) : std::numeric_limits<T>::infinity();
+    const bool pixel_limited = std::isfinite(pixel_size) && pixel_size > T(0) && T(2) * w * pixel_size > f.alpha;
+    r.center = std::isfinite(r.c) && !(s.s1 > set.max_slope_ratio * s.s2) && !pixel_limited && std::isfinite(pixel_size) &&
+               pixel_size > T(0);
+    return r;
+}
+
+namespace detail {
+
+/// The light's affine frame: (u, v) of a point's projection along the light normal, its height above the
+/// light plane, and the light's emission profile at (u, v).
+template <class T>
+struct light_plane {
+    glm::vec<3, T> corner, eu, ev, normal, dual_u, dual_v;
+    T inv_two_sigma2 = 0;
+    bool gaussian = false;
+    T extent = 0;  // |eu| + |ev|: no shift larger than this keeps a sample on the light
+
+    light_plane(const area_light<T>& light, light_weighting weighting) noexcept
+        : corner(light.corner), eu(light.edge_u), ev(light.edge_v), normal(light.normal()) {
+        const T g00 = glm::dot(eu, eu), g01 = glm::dot(eu, ev), g11 = glm::dot(ev, ev);
+        const T det = g00 * g11 - g01 * g01;
+        const T i00 = det > T(0) ? g11 / det : T(0), i01 = det > T(0) ? -g01 / det : T(0), i11 = det > T(0) ? g00 / det : T(0);
+        dual_u = i00 * eu + i01 * ev;  // dual_u·eu = 1, dual_u·ev = 0, dual_u·normal = 0
+        dual_v = i01 * eu + i11 * ev;
+        const T s = light.sigma();
+        inv_two_sigma2 = s > T(0) ? T(1) / (T(2) * s * s) : T(0);
+        gaussian = weighting == light_weighting::gaussian;
+        extent = glm::length(eu) + glm::length(ev);
+    }
+    /// (u, v, height) of a world point.
+    [[nodiscard]] glm::vec<3, T> coords(const glm::vec<3, T>& p) const noexcept {
+        const glm::vec<3, T> d = p - corner;
+        return {glm::dot(d, dual_u), glm::dot(d, dual_v), glm::dot(d, normal)};
+    }
+    /// Emission weight at light parameters (u, v): 0 off the light; 1 (uniform); the Gaussian of §1.4.
+    /// The receiver's horizon and irradiance weighting are not re-evaluated for moved samples (DEVIATIONS).
+    [[nodiscard]] T profile(T u, T v) const noexcept {
+        if (!(u >= T(0) && u <= T(1) && v >= T(0) && v <= T(1))) return T(0);
+        if (!gaussian) return T(1);
+        const glm::vec<3, T> d = (u - T(0.5)) * eu + (v - T(0.5)) * ev;
+        return std::exp(-glm::dot(d, d) * inv_two_sigma2);
+    }
+};
+
+/// Moves light parameters (u, v) seen from a receiver at plane coordinates `from` (u, v, height) into the
+/// frame of a receiver at `to`, through the occluder plane at height `d2` above the light: the ray from
+/// `from` to the light point crosses that plane at o; the returned point is where the ray from `to` through
+/// o meets the light. Exact for receivers at different heights (tilted surfaces); for equal heights it is
+/// y − c·(x_to − x_from) with c = d2/(h − d2), FORMULAS.md §9.1. NaN when the occluder plane is not
+/// between both receivers and the light.
+template <class T>
+[[nodiscard]] glm::vec<2, T> reproject(glm::vec<2, T> y, const glm::vec<3, T>& from, const glm::vec<3, T>& to, T d2) noexcept {
+    const T t_from = d2 / from.z, t_to = d2 / to.z;
+    if (!(t_from >= T(0) && t_from < T(1) && t_to >= T(0) && t_to < T(1))) return glm::vec<2, T>(std::numeric_limits<T>::quiet_NaN());
+    const glm::vec<2, T> o = y + (glm::vec<2, T>(from.x, from.y) - y) * t_from;
+    return (o - glm::vec<2, T>(to.x, to.y) * t_to) / (T(1) - t_to);
+}
+
+/// Squared offset of two world points projected onto the light plane.
+template <class T>
+[[nodiscard]] T plane_distance2(const glm::vec<3, T>& a, const glm::vec<3, T>& b, const glm::vec<3, T>& n) noexcept {
+    const glm::vec<3, T> d = a - b;
+    const T along = glm::dot(d, n);
+    return std::max(glm::dot(d, d) - along * along, T(0));
+}
+
+/// The kernel radius in pixels of a pixel with shear `sh` and footprint d: β·truncation, and no farther
+/// than a shift of one light extent, capped.
+template <class T>
+[[nodiscard]] std::size_t shear_radius(const shear<T>& sh, T pixel_size, T extent, T truncation, std::uint32_t cap) noexcept {
+    if (!sh.has_slopes() || !(pixel_size > T(0)) || !std::isfinite(pixel_size)) return 0;
+    T r = sh.beta * truncation;
+    if (sh.c > T(0)) r = std::min(r, extent / sh.c);
+    const T px = r / pixel_size;
+    if (!(px >= T(0))) return 0;
+    return static_cast<std::size_t>(std::min(std::ceil(px), static_cast<T>(cap)));
+}
+
+/// Accepts neighbour shear `n` for centre shear `c`: a neighbour without slopes (fully lit around) is
+/// accepted, one with slopes must have a c within `tol` of the centre's.
+template <class T>
+[[nodiscard]] bool shear_similar(const shear<T>& center, const shear<T>& n, T tol) noexcept {
+    if (!n.has_slopes()) return true;
+    return std::abs(n.c - center.c) <= tol * center.c;
+}
+
+}  // namespace detail
+
+/// Working memory of the sheared passes and of render_sheared (kept between frames).
+template <class T = float>
+struct sheared_workspace {
+    /// One bin of the row pass: Σ weight, Σ weight·visible, Σ weight·u, Σ weight·v.
+    struct bin {
+        T w = 0, wv = 0, wu = 0, wy = 0;
+    };
+    light_sample_buffer<T> samples;  ///< every pixel's stored samples (render_sheared)
+    image<shear<T>> shears;          ///< every pixel's shear
+    std::vector<bin> bins;           ///< row pass: bins_per_axis² per pixel
+    std::size_t bins_per_axis = 0;
+    image<T> sheared;                ///< sheared filter's output (NaN where not a centre)
+    frame_workspace<T> frame;        ///< aaf's buffers (statistics, slopes, β, its filter) for the fallback
+};
+
+/// The two factored passes of the sheared filter over stored samples, on every pixel whose shear is a
+/// `center` (others get NaN in `output`):
+/// * rows: each pixel q gathers its row neighbours' samples within its radius, moves them into its own
+///   frame with its shear (detail::reproject), weighs them with the spatial Gaussian of its β and splats
+///   them into bins of the moved light coordinate (bins per light width: settings.bins);
+/// * columns: each centre p gathers its column neighbours' bins, moves each bin's mean coordinate into its
+///   own frame with its shear and sums Gaussian × light profile × visibility over weights.
+/// With a constant shear and rows orthogonal to columns on the light plane this is the exact O(n²l²)
+/// light-integrated sheared gather (tests/reference/reference_sheared.hpp) up to the binning; otherwise it
+/// approximates it as aaf's separable passes approximate its 2-D filter (FORMULAS.md §9.3).
+/// Neighbours are rejected by `g` (normals, IDs; a normal guide uses settings.frame.filter's threshold),
+/// by non-finite positions and by a shear differing by more than settings.shear_tolerance.
+/// Throws aaf::invalid_argument (before writing) on mismatched sizes or invalid settings.
+template <class T, class G = guides<>, class Exec = sequential_executor>
+    requires detail::is_guides<G>::value
+void sheared_filter(const_image_view<glm::vec<3, T>> positions, const_image_view<T> pixel_size, const area_light<T>& light,
+                    const light_sample_buffer<T>& samples, const_image_view<shear<T>> shears, image_view<T> output,
+                    sheared_workspace<T>& ws, const G& g = {}, const sheared_settings<T>& s = {}, Exec&& exec = {}) {
+    constexpr const char* fn = "sheared_filter";
+    detail::require_nonempty(fn, "positions", positions);
+    const std::size_t w = positions.width(), h = positions.height();
+    detail::require_size(fn, "pixel_size", pixel_size, w, h);
+    detail::require_size(fn, "shears", shears, w, h);
+    detail::require_size(fn, "output", output, w, h);
+    detail::require_guides(fn, g, w, h);
+    if (samples.width() != w || samples.height() != h)
+        detail::throw_invalid(fn, "`samples` holds " + std::to_string(samples.width()) + "x" + std::to_string(samples.height()) +
+                                      " pixels but `positions` is " + std::to_string(w) + "x" + std::to_string(h));
+    detail::require_light(fn, light);
+    validate(s, fn);
+
+    const detail::light_plane<T> lp(light, s.frame.sampling.weighting);
+    const T tol = s.shear_tolerance, trunc = s.frame.filter.truncation;
+    const T cos_thr = std::cos(s.frame.filter.normal_threshold_degrees * T(3.14159265358979323846) / T(180));
+    const T B = static_cast<T>(s.bins), margin = s.bin_margin;
+    const std::size_t nb = static_cast<std::size_t>(std::ceil(B * (T(1) + T(2) * margin)));
+    ws.bins_per_axis = nb;
+    ws.bins.assign(w * h * nb * nb, typename sheared_workspace<T>::bin{});
+    const auto plane = [&](std::size_t x, std::size_t y) { return lp.coords(positions(x, y)); };
+    const auto finite3 = [](const glm::vec<3, T>& p) { return std::isfinite(p.x + p.y + p.z); };
+
+    // Rows: every pixel with slopes gathers its row into its bins; one without slopes keeps its own samples
+    // unmoved (a column centre moves them with its own shear).
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                typename sheared_workspace<T>::bin* out = ws.bins.data() + (y * w + x) * nb * nb;
+                const glm::vec<3, T> p0 = positions(x, y);
+                if (!finite3(p0)) continue;
+                const shear<T> sh = shears(x, y);
+                const glm::vec<3, T> q = plane(x, y);
+                const std::size_t r = sh.has_slopes() ? detail::shear_radius(sh, pixel_size(x, y), lp.extent, trunc, s.max_radius) : 0;
+                const T d2 = sh.has_slopes() ? q.z * sh.c / (T(1) + sh.c) : T(0);
+                const T inv_two_beta2 = std::isfinite(sh.beta) && sh.beta > T(0) ? T(1) / (T(2) * sh.beta * sh.beta) : T(0);
+                const detail::guide_center<T, G> gc(g, x, y);
+                const std::size_t xa = x >= r ? x - r : 0, xb = std::min(w - 1, x + r);
+                for (std::size_t xn = xa; xn <= xb; ++xn) {
+                    const glm::vec<3, T> pn = positions(xn, y);
+                    if (!finite3(pn)) continue;
+                    if (xn != x && (!gc.accepts(g, xn, y, cos_thr) || !detail::shear_similar(sh, shears(xn, y), tol))) continue;
+                    const T a = std::exp(-detail::plane_distance2(p0, pn, lp.normal) * inv_two_beta2);
+                    const glm::vec<3, T> from = plane(xn, y);
+                    for (const light_sample<T>& smp : samples.pixel(xn, y)) {
+                        if (smp.state == sample_state::unused) continue;
+                        glm::vec<2, T> m(smp.u, smp.v);
+                        if (xn != x) m = detail::reproject(m, from, q, d2);
+                        const T bu = std::floor((m.x + margin) * B), bv = std::floor((m.y + margin) * B);
+                        if (!(bu >= T(0) && bu < static_cast<T>(nb) && bv >= T(0) && bv < static_cast<T>(nb))) continue;
+                        auto& b = out[static_cast<std::size_t>(bv) * nb + static_cast<std::size_t>(bu)];
+                        b.w += a, b.wu += a * m.x, b.wy += a * m.y;
+                        if (smp.state == sample_state::visible) b.wv += a;
+                    }
+                }
+            }
+    });
+
+    // Columns: each centre gathers its column's bins.
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                const shear<T> sh = shears(x, y);
+                const glm::vec<3, T> p0 = positions(x, y);
+                if (!sh.center || !finite3(p0)) {
+                    output(x, y) = std::numeric_limits<T>::quiet_NaN();
+                    continue;
+                }
+                const glm::vec<3, T> q = plane(x, y);
+                const std::size_t r = detail::shear_radius(sh, pixel_size(x, y), lp.extent, trunc, s.max_radius);
+                const T d2 = q.z * sh.c / (T(1) + sh.c);
+                const T inv_two_beta2 = std::isfinite(sh.beta) && sh.beta > T(0) ? T(1) / (T(2) * sh.beta * sh.beta) : T(0);
+                const detail::guide_center<T, G> gc(g, x, y);
+                const std::size_t ya = y >= r ? y - r : 0, yb = std::min(h - 1, y + r);
+                T num = 0, den = 0;
+                for (std::size_t yn = ya; yn <= yb; ++yn) {
+                    const glm::vec<3, T> pn = positions(x, yn);
+                    if (!finite3(pn)) continue;
+                    if (yn != y && (!gc.accepts(g, x, yn, cos_thr) || !detail::shear_similar(sh, shears(x, yn), tol))) continue;
+                    const T a = std::exp(-detail::plane_distance2(p0, pn, lp.normal) * inv_two_beta2);
+                    const glm::vec<3, T> from = plane(x, yn);
+                    const typename sheared_workspace<T>::bin* in = ws.bins.data() + (yn * w + x) * nb * nb;
+                    for (std::size_t i = 0; i < nb * nb; ++i) {
+                        const auto& b = in[i];
+                        if (!(b.w > T(0))) continue;
+                        glm::vec<2, T> m(b.wu / b.w, b.wy / b.w);
+                        if (yn != y) m = detail::reproject(m, from, q, d2);
+                        const T l = lp.profile(m.x, m.y);
+                        if (!(l > T(0))) continue;
+                        num += a * l * b.wv, den += a * l * b.w;
+                    }
+                }
+                output(x, y) = den > T(0) ? num / den : std::numeric_limits<T>::quiet_NaN();
+            }
+    });
+}
+
+/// Traces `samples.samples_per_pixel()` samples of pass `pass` per surface pixel (keys from pixel_key, so
+/// the same samples as gather_occlusion draws for that pass), stores each sample's light coordinate and
+/// visibility in `samples` (sized by the caller with reset(w, h, spp)) and adds them to `stats` as
+/// gather_occlusion does (nearest and farthest occluder). Returns the rays traced.
+template <class T, class Ids, class Tracer, class Exec = sequential_executor>
+    requires occlusion_tracer<Tracer, T>
+std::uint64_t gather_light_samples(const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
+                                   const sampling_settings& s, std::uint32_t pass, light_sample_buffer<T>& samples,
+                                   image_view<occlusion_stats<T>> stats, Exec&& exec = {}) {
+    constexpr const char* fn = "gather_light_samples";
+    detail::require_gbuffer(fn, gb);
+    detail::require_light(fn, light);
+    validate(s, fn);
+    const std::size_t w = gb.width(), h = gb.height();
+    detail::require_size(fn, "stats", stats, w, h);
+    if (samples.width() != w || samples.height() != h || samples.samples_per_pixel() == 0)
+        detail::throw_invalid(fn, "`samples` holds " + std::to_string(samples.width()) + "x" + std::to_string(samples.height()) + "x" +
+                                      std::to_string(samples.samples_per_pixel()) + " samples; reset it to the G-buffer's " +
+                                      std::to_string(w) + "x" + std::to_string(h) + " with at least one sample per pixel");
+    const std::uint32_t spp = samples.samples_per_pixel();
+    const light_sample_frame<T> frame(light, s.weighting);
+    std::atomic<std::uint64_t> rays{0};
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        std::vector<glm::vec<2, T>> uv(spp);
+        std::vector<shadow_segment<T>> seg(spp);
+        std::vector<occluder_span<T>> hit(spp);
+        std::vector<T> wgt(spp);
+        std::vector<std::uint32_t> index(spp);
+        detail::trace_scratch<T> scratch;
+        std::uint64_t local = 0;
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                std::span<light_sample<T>> out = samples.pixel(x, y);
+                for (auto& o : out) o = {};
+                const glm::vec<3, T> p = gb.positions(x, y);
+                const glm::vec<3, T> n0 = gb.normals(x, y);
+                if (!std::isfinite(p.x + p.y + p.z) || !std::isfinite(n0.x + n0.y + n0.z)) continue;
+                const glm::vec<3, T> n = detail::receiver_normal(n0, p, frame.center);
+                generate_samples<T>(s.pattern, pixel_key(gb.region, x, y, pass, s.light_index, s.frame_seed), uv);
+                const glm::vec<3, T> origin = shadow_ray_origin(p, n, frame.center, s.origin_offset);
+                const T d1 = std::abs(glm::dot(origin - light.corner, frame.normal));
+                std::uint32_t traced = 0;
+                occlusion_stats<T>& st = stats(x, y);
+                for (std::uint32_t i = 0; i < spp; ++i) {
+                    out[i].u = uv[i].x, out[i].v = uv[i].y;
+                    const glm::vec<3, T> yl = light.point(uv[i].x, uv[i].y);
+                    const T wi = frame.weight(n, yl - p, yl);
+                    const glm::vec<3, T> to = yl - origin;
+                    const T len = glm::length(to);
+                    if (!(wi > T(0)) || !std::isfinite(wi) || !(len > T(0)) || !std::isfinite(len)) {
+                        ++st.samples;  // drawn, no weight (as gather_occlusion)
+                        continue;
+                    }
+                    seg[traced] = {origin, to * (T(1) / len), len};
+                    wgt[traced] = wi;
+                    index[traced] = i;
+                    ++traced;
+                }
+                std::fill_n(hit.begin(), traced, occluder_span<T>{});
+                detail::trace_all<T>(tracer, std::span<const shadow_segment<T>>(seg.data(), traced), std::span<occluder_span<T>>(hit.data(), traced),
+                             &scratch);
+                local += traced;
+                for (std::uint32_t j = 0; j < traced; ++j) {
+                    st.add_sample(wgt[j], d1, seg[j].length, hit[j]);
+                    const bool failed = std::isnan(hit[j].nearest) || std::isnan(hit[j].farthest);
+                    out[index[j]].state = failed ? sample_state::unused : hit[j].hit() ? sample_state::blocked : sample_state::visible;
+                }
+            }
+        rays += local;
+    });
+    return rays.load();
+}
+
+/// A whole frame with the sheared filter (FORMULAS.md §9.3) where it applies and aaf elsewhere:
+/// 1. `settings.frame.sampling.initial_samples` samples per pixel, stored (gather_light_samples, pass 0);
+/// 2. slopes, spread to unoccluded neighbours (§1.12), and each pixel's shear (shear_of);
+/// 3. pixels that are not sheared centres but have slopes get aaf's adaptive samples (visibility only,
+///    pass 1, n(μ) capped at max_samples) and aaf's filter (image-space offsets, normals and IDs);
+/// 4. the sheared passes (sheared_filter) on the centres.
+/// Outputs as render_frame's (sky 1, no light 0, clamped to [0, 1]). Throws aaf::invalid_argument before
+/// writing on mismatched buffers or invalid settings.
+template <class T, class Ids, class Tracer, class Exec = sequential_executor>
+    requires occlusion_tracer<Tracer, T>
+frame_report render_sheared(const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer, const frame_outputs<T>& out,
+                            sheared_workspace<T>& ws, const sheared_settings<T>& settings = {}, Exec&& exec = {}) {
+    constexpr const char* fn = "render_sheared";
+    using clock = std::chrono::steady_clock;
+    detail::require_gbuffer(fn, gb);
+    detail::require_light(fn, light);
+    validate(settings, fn);
+    const std::size_t w = gb.width(), h = gb.height();
+    detail::require_size(fn, "outputs.visibility", out.visibility, w, h);
+    detail::require_size_or_empty(fn, "outputs.shaded", out.shaded, w, h);
+    detail::require_size_or_empty(fn, "outputs.unshadowed", out.unshadowed, w, h);
+
+    frame_report report;
+    report.pixels = static_cast<std::uint64_t>(w) * h;
+    const auto t_frame = clock::now();
+    frame_workspace<T>& fw = ws.frame;
+    fw.resize(w, h);
+    fw.stats.fill(occlusion_stats<T>{});
+    fw.adaptive_samples.fill(0);
+    if (ws.shears.width() != w || ws.shears.height() != h) ws.shears.reset(w, h), ws.sheared.reset(w, h);
+    const sampling_settings& ss = settings.frame.sampling;
+    const formula_settings<T>& fs = settings.frame.formulas;
+    if (ws.samples.width() != w || ws.samples.height() != h || ws.samples.samples_per_pixel() != ss.initial_samples)
+        ws.samples.reset(w, h, ss.initial_samples);
+    const T sigma = light.sigma();
+
+    auto t0 = clock::now();
+    report.initial_rays = gather_light_samples(gb, light, tracer, ss, 0, ws.samples, fw.stats.view(), exec);
+    report.initial_ms = detail::ms_since(t0);
+
+    t0 = clock::now();
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) fw.slopes(x, y) = slopes(fw.stats(x, y), fs.max_slope);
+    });
+    const auto id_guides = [&] {
+        if constexpr (gbuffer<T, Ids>::has_ids) return guides<no_guide, Ids, no_guide>{{}, gb.ids, {}};
+        else return guides<>{};
+    }();
+    if (settings.frame.filter.spread_slopes)
+        spread_slopes<T>(fw.slopes.view(), fw.slope_scratch.view(), settings.frame.filter.spread_radius, id_guides, exec);
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                const T d = gb.pixel_size(x, y);
+                const shear<T> sh = shear_of(fw.slopes(x, y), sigma, d, settings);
+                ws.shears(x, y) = sh;
+                fw.filter_width(x, y) = sh.center ? T(0) : filter_width(fw.slopes(x, y), sigma, d, fs);
+                std::uint32_t extra = 0;
+                if (!sh.center && ss.adaptive && fw.slopes(x, y).has_occluder()) {
+                    const std::uint32_t n = target_samples(sample_count(fw.slopes(x, y), sigma, d, fs), ss.initial_samples, ss.max_samples);
+                    extra = n - ss.initial_samples;
+                }
+                fw.adaptive_samples(x, y) = extra;
+            }
+    });
+    report.formulas_ms = detail::ms_since(t0);
+
+    t0 = clock::now();
+    report.adaptive_rays = gather_visibility(gb, light, tracer, ss, 1, 0, fw.stats.view(), fw.adaptive_samples.cview(), exec);
+    report.adaptive_ms = detail::ms_since(t0);
+
+    t0 = clock::now();
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) fw.raw_visibility(x, y) = fw.stats(x, y).visibility();
+    });
+    {
+        guides<const_image_view<glm::vec<3, T>>, Ids, no_guide> g{gb.normals, gb.ids, {}};
+        filter_settings<T> f = settings.frame.filter;
+        f.space = offset_space::image;
+        f.footprint = pixel_footprint::camera;
+        filter_visibility<T>(fw.raw_visibility.cview(), fw.filter_width.cview(), gb.pixel_size, fw.filtered.view(), fw.scratch.view(),
+                             fw.filter, g, f, light.normal(), exec);
+        sheared_filter<T>(gb.positions, gb.pixel_size, light, ws.samples, ws.shears.cview(), ws.sheared.view(), ws, g, settings, exec);
+    }
+    report.filter_ms = detail::ms_since(t0);
+
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                const glm::vec<3, T> p = gb.positions(x, y), n = gb.normals(x, y);
+                const bool surface = std::isfinite(p.x + p.y + p.z) && std::isfinite(n.x + n.y + n.z);
+                T v = ws.shears(x, y).center && std::isfinite(ws.sheared(x, y)) ? ws.sheared(x, y) : fw.filtered(x, y);
+                if (!surface) v = T(1);
+                else if (!fw.stats(x, y).has_light() || !std::isfinite(v)) v = T(0);
+                v = std::clamp(v, T(0), T(1));
+                out.visibility(x, y) = v;
+                if (!out.shaded.empty()) {
+                    T e = T(0);
+                    if (!out.unshadowed.empty()) e = out.unshadowed(x, y);
+                    else if (surface) e = unshadowed_irradiance(light, p, n, settings.frame.radiance);
+                    out.shaded(x, y) = v * e;
+                }
+            }
+    });
+    report.total_ms = detail::ms_since(t_frame);
+    return report;
+}
+
+}  // namespace v0
+}  // namespace aaf
