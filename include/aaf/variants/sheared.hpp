@@ -103,6 +103,18 @@ struct shear {
     [[nodiscard]] bool has_slopes() const noexcept { return std::isfinite(c); }
 };
 
+/// How the sheared gather turns its weighted samples into a visibility.
+enum class sheared_normalization {
+    /// One ratio Σ a·L·V / Σ a·L over all moved samples (FORMULAS.md §9.3 as written). Biased wherever the
+    /// moved samples do not cover the centre's light evenly: each neighbour's samples cover its light shifted
+    /// by cΔ, so near the light's edges fewer neighbours contribute and the light's middle is over-weighted.
+    pooled,
+    /// The centre's light cut into bins × bins cells: each cell's weighted mean visibility, averaged with the
+    /// cells' emission as weights (cells without samples are left out). Removes that density bias
+    /// (DEVIATIONS.md). The default.
+    per_cell,
+};
+
 /// Settings of the sheared filter and of render_sheared.
 template <class T = float>
 struct sheared_settings {
@@ -125,6 +137,8 @@ struct sheared_settings {
     T bin_margin = T(0.5);
     /// Cap on the kernel radius in pixels (each pass); [0, 64].
     std::uint32_t max_radius = 12;
+    /// How the weighted samples become a visibility (also the cells of per_cell: `bins` per axis).
+    sheared_normalization normalization = sheared_normalization::per_cell;
 };
 
 /// Throws aaf::invalid_argument naming the first invalid field.
@@ -138,6 +152,8 @@ void validate(const sheared_settings<T>& s, const char* function = "validate") {
     if (s.bins < 1 || s.bins > 32) detail::throw_invalid(function, "`settings.bins` must be in [1, 32] (got " + std::to_string(s.bins) + ")");
     if (!(s.bin_margin >= T(0) && s.bin_margin <= T(2)))
         detail::throw_invalid(function, "`settings.bin_margin` must be in [0, 2] (got " + std::to_string(s.bin_margin) + ")");
+    if (s.normalization != sheared_normalization::pooled && s.normalization != sheared_normalization::per_cell)
+        detail::throw_invalid(function, "`settings.normalization` must be sheared_normalization::pooled or per_cell");
     if (s.max_radius > 64) detail::throw_invalid(function, "`settings.max_radius` must be in [0, 64] (got " + std::to_string(s.max_radius) + ")");
 }
 
@@ -195,6 +211,19 @@ struct light_plane {
         if (!gaussian) return T(1);
         const glm::vec<3, T> d = (u - T(0.5)) * eu + (v - T(0.5)) * ev;
         return std::exp(-glm::dot(d, d) * inv_two_sigma2);
+    }
+    /// The profile averaged over a square of half-width `half` around (u, v), taking the samples of a bin
+    /// as spread uniformly over it: the fraction of the square on the light (times the Gaussian at its
+    /// centre). A bin straddling the light's edge then counts in part instead of all or nothing, which makes
+    /// the binning error second order in the bin size where the edge is straight.
+    [[nodiscard]] T profile_box(T u, T v, T half) const noexcept {
+        if (!(half > T(0))) return profile(u, v);
+        const auto cover = [half](T c) { return std::clamp((std::min(c + half, T(1)) - std::max(c - half, T(0))) / (T(2) * half), T(0), T(1)); };
+        const T f = cover(u) * cover(v);
+        if (!(f > T(0))) return T(0);
+        if (!gaussian) return f;
+        const glm::vec<3, T> d = (u - T(0.5)) * eu + (v - T(0.5)) * ev;
+        return f * std::exp(-glm::dot(d, d) * inv_two_sigma2);
     }
 };
 
@@ -334,7 +363,9 @@ void sheared_filter(const_image_view<glm::vec<3, T>> positions, const_image_view
     });
 
     // Columns: each centre gathers its column's bins.
+    const bool per_cell = s.normalization == sheared_normalization::per_cell;
     exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        std::vector<T> cell_num(per_cell ? std::size_t{s.bins} * s.bins : 0), cell_den(cell_num.size());
         for (std::size_t y = y0; y < y1; ++y)
             for (std::size_t x = 0; x < w; ++x) {
                 const shear<T> sh = shears(x, y);
@@ -348,8 +379,10 @@ void sheared_filter(const_image_view<glm::vec<3, T>> positions, const_image_view
                 const T d2 = q.z * sh.c / (T(1) + sh.c);
                 const T inv_two_beta2 = std::isfinite(sh.beta) && sh.beta > T(0) ? T(1) / (T(2) * sh.beta * sh.beta) : T(0);
                 const detail::guide_center<T, G> gc(g, x, y);
+                const T half_bin = T(0.5) / B;
                 const std::size_t ya = y >= r ? y - r : 0, yb = std::min(h - 1, y + r);
                 T num = 0, den = 0;
+                if (per_cell) std::fill(cell_num.begin(), cell_num.end(), T(0)), std::fill(cell_den.begin(), cell_den.end(), T(0));
                 for (std::size_t yn = ya; yn <= yb; ++yn) {
                     const glm::vec<3, T> pn = positions(x, yn);
                     if (!finite3(pn)) continue;
@@ -362,9 +395,22 @@ void sheared_filter(const_image_view<glm::vec<3, T>> positions, const_image_view
                         if (!(b.w > T(0))) continue;
                         glm::vec<2, T> m(b.wu / b.w, b.wy / b.w);
                         if (yn != y) m = detail::reproject(m, from, q, d2);
-                        const T l = lp.profile(m.x, m.y);
+                        const T l = lp.profile_box(m.x, m.y, half_bin);
                         if (!(l > T(0))) continue;
-                        num += a * l * b.wv, den += a * l * b.w;
+                        if (per_cell) {
+                            const auto cu = static_cast<std::size_t>(std::clamp(m.x * B, T(0), B - T(1)));
+                            const auto cv = static_cast<std::size_t>(std::clamp(m.y * B, T(0), B - T(1)));
+                            cell_num[cv * s.bins + cu] += a * l * b.wv, cell_den[cv * s.bins + cu] += a * l * b.w;
+                        } else {
+                            num += a * l * b.wv, den += a * l * b.w;
+                        }
+                    }
+                }
+                if (per_cell) {  // each light cell's mean visibility, weighed by its emission (not by its samples)
+                    for (std::size_t c = 0; c < cell_num.size(); ++c) {
+                        if (!(cell_den[c] > T(0))) continue;
+                        const T e = lp.profile((static_cast<T>(c % s.bins) + T(0.5)) / B, (static_cast<T>(c / s.bins) + T(0.5)) / B);
+                        num += e * cell_num[c] / cell_den[c], den += e;
                     }
                 }
                 output(x, y) = den > T(0) ? num / den : std::numeric_limits<T>::quiet_NaN();
