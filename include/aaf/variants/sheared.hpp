@@ -241,6 +241,24 @@ template <class T>
     return (o - glm::vec<2, T>(to.x, to.y) * t_to) / (T(1) - t_to);
 }
 
+/// detail::reproject as the affine map y ↦ scale·y + offset for one pair of receivers (computed once per
+/// neighbour, applied per sample or bin). `valid` false where reproject gives NaN.
+template <class T>
+struct reprojection {
+    T scale = 1;
+    glm::vec<2, T> offset{0};
+    bool valid = true;
+    reprojection(const glm::vec<3, T>& from, const glm::vec<3, T>& to, T d2) noexcept {
+        const T t_from = d2 / from.z, t_to = d2 / to.z;
+        valid = t_from >= T(0) && t_from < T(1) && t_to >= T(0) && t_to < T(1);
+        if (!valid) return;
+        const T inv = T(1) / (T(1) - t_to);
+        scale = (T(1) - t_from) * inv;
+        offset = (glm::vec<2, T>(from.x, from.y) * t_from - glm::vec<2, T>(to.x, to.y) * t_to) * inv;
+    }
+    [[nodiscard]] glm::vec<2, T> operator()(glm::vec<2, T> y) const noexcept { return y * scale + offset; }
+};
+
 /// Squared offset of two world points projected onto the light plane.
 template <class T>
 [[nodiscard]] T plane_distance2(const glm::vec<3, T>& a, const glm::vec<3, T>& b, const glm::vec<3, T>& n) noexcept {
@@ -347,11 +365,12 @@ void sheared_filter(const_image_view<glm::vec<3, T>> positions, const_image_view
                     if (!finite3(pn)) continue;
                     if (xn != x && (!gc.accepts(g, xn, y, cos_thr) || !detail::shear_similar(sh, shears(xn, y), tol))) continue;
                     const T a = std::exp(-detail::plane_distance2(p0, pn, lp.normal) * inv_two_beta2);
-                    const glm::vec<3, T> from = plane(xn, y);
+                    const detail::reprojection<T> move(plane(xn, y), q, d2);
+                    if (xn != x && !move.valid) continue;
                     for (const light_sample<T>& smp : samples.pixel(xn, y)) {
                         if (smp.state == sample_state::unused) continue;
                         glm::vec<2, T> m(smp.u, smp.v);
-                        if (xn != x) m = detail::reproject(m, from, q, d2);
+                        if (xn != x) m = move(m);
                         const T bu = std::floor((m.x + margin) * B), bv = std::floor((m.y + margin) * B);
                         if (!(bu >= T(0) && bu < static_cast<T>(nb) && bv >= T(0) && bv < static_cast<T>(nb))) continue;
                         auto& b = out[static_cast<std::size_t>(bv) * nb + static_cast<std::size_t>(bu)];
@@ -388,13 +407,14 @@ void sheared_filter(const_image_view<glm::vec<3, T>> positions, const_image_view
                     if (!finite3(pn)) continue;
                     if (yn != y && (!gc.accepts(g, x, yn, cos_thr) || !detail::shear_similar(sh, shears(x, yn), tol))) continue;
                     const T a = std::exp(-detail::plane_distance2(p0, pn, lp.normal) * inv_two_beta2);
-                    const glm::vec<3, T> from = plane(x, yn);
+                    const detail::reprojection<T> move(plane(x, yn), q, d2);
+                    if (yn != y && !move.valid) continue;
                     const typename sheared_workspace<T>::bin* in = ws.bins.data() + (yn * w + x) * nb * nb;
                     for (std::size_t i = 0; i < nb * nb; ++i) {
                         const auto& b = in[i];
                         if (!(b.w > T(0))) continue;
                         glm::vec<2, T> m(b.wu / b.w, b.wy / b.w);
-                        if (yn != y) m = detail::reproject(m, from, q, d2);
+                        if (yn != y) m = move(m);
                         const T l = lp.profile_box(m.x, m.y, half_bin);
                         if (!(l > T(0))) continue;
                         if (per_cell) {
