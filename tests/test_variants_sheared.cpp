@@ -5,6 +5,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 #include <limits>
@@ -233,4 +234,41 @@ TEST_CASE("sheared: non-finite data does not spread", "[variants][sheared]") {
         }
     CHECK(out(12, 12) == 1.0f);  // no surface: sky
     CHECK(out(13, 12) == 1.0f);
+}
+
+// Not run by default (hidden tag): the figures DEVIATIONS.md H1 and RESULTS.md quote, printed with WARN.
+// build/release/tests/aaf_tests "[.sheared_probe]"
+TEST_CASE("sheared: probe of the error against samples on one and two occluder planes", "[.sheared_probe]") {
+    for (const bool two : {false, true}) {
+        scene_t sc;
+        sc.width = sc.height = 64;
+        if (two) sc.occluders.push_back({-1.2f, 0.2f, -0.1f, 0.9f, 1.6f});
+        const aaf_test::analytic_gbuffer<float> gb(sc);
+        const aaf_test::span_tracer<float> tracer{&sc};
+        const aaf::image<double> exact = sc.exact_image();
+        for (const unsigned spp : {1u, 4u, 16u, 64u}) {
+            double e[3] = {};
+            for (int form = 0; form < 2; ++form) {
+                aaf::sheared_settings<float> s;
+                s.frame.sampling.initial_samples = spp;
+                s.frame.sampling.max_samples = std::max(spp, 100u);
+                s.max_slope_ratio = std::numeric_limits<float>::infinity();
+                s.normalization = form == 0 ? aaf::sheared_normalization::pooled : aaf::sheared_normalization::per_cell;
+                aaf::sheared_workspace<float> ws;
+                aaf::image<float> img(sc.width, sc.height);
+                aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, ws, s);
+                e[form] = aaf_test::rmse(img, exact);
+            }
+            aaf::frame_settings<float> fs;
+            fs.sampling.initial_samples = spp;
+            fs.sampling.max_samples = std::max(spp, 100u);
+            fs.sampling.adaptive = false;
+            aaf::frame_workspace<float> fw;
+            aaf::image<float> img(sc.width, sc.height);
+            aaf::render_frame(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, fw, fs);
+            e[2] = aaf_test::rmse(img, exact);
+            WARN((two ? "two planes" : "one plane") << ", " << spp << " spp: RMSE sheared pooled " << e[0] << ", per cell " << e[1]
+                                                   << ", aaf (no adaptive samples) " << e[2]);
+        }
+    }
 }

@@ -158,9 +158,11 @@ method progressive_method() {
 /// The sheared filter (aaf::render_sheared, variants/sheared.hpp): `knob` samples per pixel kept with their
 /// light coordinates; pixels whose s1/s2 exceeds `ratio` (or that are pixel-limited, or have no slopes but
 /// occluders nearby) fall back to aaf with its adaptive samples at mu = 2 (max 100); ratio +inf = never.
-method sheared_method(std::string name, float ratio, std::string description) {
+method sheared_method(std::string name, float ratio, std::string description, float tolerance = 0.5f, std::uint32_t max_radius = 12) {
     aaf::sheared_settings<float> base;
     base.max_slope_ratio = ratio;
+    base.shear_tolerance = tolerance;
+    base.max_radius = max_radius;
     json j;
     j["description"] = description;
     j["knob"] = "initial_samples (samples stored per pixel, stratified)";
@@ -252,9 +254,9 @@ method_family variant_methods() {
         sheared_method("aaf_sheared", 2.0f,
                        "sheared filter (Yan et al. 2015, FORMULAS 9.3) on pixels with s1/s2 <= 2, aaf with adaptive samples "
                        "elsewhere; knob = samples per pixel kept"),
-        sheared_method("aaf_sheared_r1.25", 1.25f, "as aaf_sheared, falling back to aaf where s1/s2 > 1.25"),
         sheared_method("aaf_sheared_all", std::numeric_limits<float>::infinity(),
                        "as aaf_sheared without the fallback on s1/s2 (sheared wherever the wedge is not pixel-limited)"),
+        sheared_method("aaf_sheared_tight", 2.0f, "as aaf_sheared with a shear tolerance of 0.1 and a 6-pixel radius cap", 0.1f, 6),
     };
     const char* sweep = std::getenv("AAF_VARIANTS_SWEEP");
     if (sweep != nullptr && std::string(sweep) == "1") {

@@ -13,9 +13,10 @@
 // axis-aligned filter with its adaptive samples (render_sheared).
 //
 // Memory (what the abstract calls FSF's "high-dimensional data storage"): every sample is kept,
-// sizeof(light_sample<T>) = 12 bytes in float per sample (u, v and a state byte); the row pass keeps
-// bins² × 4 values per pixel (sheared_workspace::bins). At 320×240, 4 samples and the default 8×8 bins:
-// 3.7 MB of samples and 19.7 MB of bins (16 spp: 14.7 MB of samples); aaf's own frame keeps one
+// sizeof(light_sample<float>) = 12 bytes per sample (u, v and a state byte): 3.7 MB at 320×240 and 4 spp,
+// 14.7 MB at 16 spp (1080p at 16 spp: 398 MB). The row pass keeps (bins·(1 + 2·bin_margin))² bins of 4
+// values per pixel: 8×8 × 16 bytes = 1 KB per pixel at the defaults, 78.6 MB at 320×240 (2 GB at 1080p;
+// a renderer would keep only the 2·max_radius + 1 rows the column pass reads). aaf's own frame keeps one
 // occlusion_stats (28 bytes) per pixel.
 
 #include <algorithm>
