@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <string>
 #include <utility>
 
@@ -68,6 +69,9 @@ struct aaf_variant {
     aaf::frame_preset preset = aaf::frame_preset::balanced;
     aaf::shadow_query adaptive_query = aaf::sampling_settings{}.adaptive_query;  ///< the library's default unless named
     aaf::pixel_footprint footprint = aaf::pixel_footprint::camera;               ///< tilt-aware widths unless camera
+    float min_stretch = 1;                                      ///< filter_settings::footprint_min_stretch
+    aaf::light_profile light = aaf::light_profile::gaussian;   ///< formula_settings::light (issue 13's box-matched β)
+    aaf::sample_pattern pattern = aaf::sampling_settings{}.pattern;  ///< the library's default unless named
 };
 
 /// The settings of one point of an aaf or preset method.
@@ -86,6 +90,9 @@ aaf::frame_settings<float> aaf_settings(const aaf_variant& v, double knob, std::
         fs.filter.space = v.space;
         fs.sampling.adaptive_query = v.adaptive_query;
         fs.filter.footprint = v.footprint;
+        fs.filter.footprint_min_stretch = v.min_stretch;
+        fs.formulas.light = v.light;
+        fs.sampling.pattern = v.pattern;
         // render_frame always filters with normals (and IDs when the G-buffer has them): a threshold of
         // 180° accepts every finite normal, which is the normal guide switched off.
         if (!v.guides) fs.filter.normal_threshold_degrees = 180;
@@ -124,6 +131,8 @@ json aaf_settings_json(const aaf_variant& v, const std::string& description) {
     j["footprint"] = fs.filter.footprint == aaf::pixel_footprint::camera         ? "camera"
                      : fs.filter.footprint == aaf::pixel_footprint::surface_area ? "surface_area"
                                                                                  : "surface_max";
+    if (fs.filter.footprint != aaf::pixel_footprint::camera) j["footprint_min_stretch"] = fs.filter.footprint_min_stretch;
+    j["light_profile"] = fs.formulas.light == aaf::light_profile::box ? "box (beta's light term uses sigma/sqrt 3)" : "gaussian";
     json guides = json::array();
     if (v.guides) guides.push_back("normals"), guides.push_back("ids");
     if (fs.filter.space == aaf::offset_space::light_plane) guides.push_back("positions");
@@ -219,12 +228,37 @@ method_family shadow_methods() {
                    "as aaf_adaptive with tilt-aware widths: beta over the pixel's footprint on its surface, sqrt(s_x s_y)"),
         aaf_method("aaf_tilt_max", "aaf", {.footprint = aaf::pixel_footprint::surface_max},
                    "as aaf_adaptive with tilt-aware widths: beta over the longer side of the pixel's footprint on its surface"),
+        aaf_method("aaf_box", "aaf", {.light = aaf::light_profile::box},
+                   "as aaf_adaptive with beta matched to the uniform light's standard deviation sigma/sqrt 3 (light_profile::box)"),
+        aaf_method("aaf_box_tilt", "aaf", {.footprint = aaf::pixel_footprint::surface_area, .light = aaf::light_profile::box},
+                   "aaf_box with tilt-aware widths (surface_area)"),
+        aaf_method("aaf_tilt_ld", "aaf", {.footprint = aaf::pixel_footprint::surface_area, .pattern = aaf::sample_pattern::low_discrepancy},
+                   "aaf_tilt_area with Owen-scrambled Sobol' light samples (sample_pattern::low_discrepancy)"),
+        aaf_method("aaf_box_ld", "aaf", {.light = aaf::light_profile::box, .pattern = aaf::sample_pattern::low_discrepancy},
+                   "aaf_box with Owen-scrambled Sobol' light samples"),
+        aaf_method("aaf_box_tilt_ld", "aaf",
+                   {.footprint = aaf::pixel_footprint::surface_area, .light = aaf::light_profile::box, .pattern = aaf::sample_pattern::low_discrepancy},
+                   "aaf_box_tilt with Owen-scrambled Sobol' light samples"),
+        aaf_method("aaf_lp_box", "aaf", {.space = offset_space::light_plane, .light = aaf::light_profile::box},
+                   "aaf_light_plane with the box-matched width (light_profile::box)"),
+        aaf_method("aaf_lp_box_ld", "aaf",
+                   {.space = offset_space::light_plane, .light = aaf::light_profile::box, .pattern = aaf::sample_pattern::low_discrepancy},
+                   "aaf_lp_box with Owen-scrambled Sobol' light samples"),
         aaf_method("preset_fast", "preset", {.knob = k::preset, .preset = aaf::frame_preset::fast}, "aaf::preset(frame_preset::fast)"),
         aaf_method("preset_balanced", "preset", {.knob = k::preset, .preset = aaf::frame_preset::balanced},
                    "aaf::preset(frame_preset::balanced)"),
         aaf_method("preset_accurate", "preset", {.knob = k::preset, .preset = aaf::frame_preset::accurate},
                    "aaf::preset(frame_preset::accurate)"),
     };
+    // AAF_SHADOW_SWEEP=1 registers the footprint_min_stretch candidates of docs/RESULTS.md (issue 13).
+    const char* sweep = std::getenv("AAF_SHADOW_SWEEP");
+    if (sweep != nullptr && std::string(sweep) == "1")
+        for (float t : {1.25f, 1.5f, 2.0f, 3.0f}) {
+            const std::string tag = t == 1.25f ? "125" : t == 1.5f ? "15" : std::to_string(static_cast<int>(t));
+            f.methods.push_back(aaf_method("aaf_tilt_s" + tag, "aaf", {.footprint = aaf::pixel_footprint::surface_area, .min_stretch = t},
+                                           "sweep candidate: aaf_tilt_area only where the pixel is stretched at least " +
+                                               std::to_string(t) + "x (footprint_min_stretch)"));
+        }
     f.references = {quantity_reference{
         .what = quantity::shadow,
         .name = "shadow",

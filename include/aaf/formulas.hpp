@@ -79,12 +79,21 @@ template <class T>
     return detail::safe_div(T(1), sigma * s2);
 }
 
+/// The light's standard deviation the filter width assumes: σ for the paper's Gaussian light, σ/√3 for the
+/// uniform parallelogram (light_profile::box, the per-axis standard deviation of a square of side 2σ).
+template <class T>
+[[nodiscard]] constexpr T filter_light_sigma(T sigma, light_profile profile) noexcept {
+    return profile == light_profile::box ? sigma * T(0.57735026918962576451) : sigma;  // 1/√3
+}
+
 /// Filter bandwidth Ω* in world units⁻¹ (§1.7): paper μ·min(1/(σ s2), Ω_x^max); authors min(μ/(σ s2), Ω_x^max).
+/// With formula_settings::light = light_profile::box the light term uses σ/√3 (filter_light_sigma; a
+/// deviation from the paper, DEVIATIONS.md): Ω* and β only, sample_count keeps the paper's σ.
 template <class T>
 [[nodiscard]] constexpr T filter_bandwidth(const slope_pair<T>& s, T sigma, T pixel_size,
                                            const formula_settings<T>& f) noexcept {
     if (!detail::formula_inputs_valid(s, sigma, pixel_size)) return detail::inf<T>;
-    const T light = light_limited_bandwidth(sigma, s.s2);
+    const T light = light_limited_bandwidth(filter_light_sigma(sigma, f.light), s.s2);
     const T pixel = receiver_bandlimit(pixel_size, s.s2, f.alpha);
     return f.form == formula_form::paper ? f.mu * std::min(light, pixel) : std::min(f.mu * light, pixel);
 }

@@ -249,6 +249,13 @@ frame_report render_frame_stages(const gbuffer<T, Ids>& gb, const area_light<T>&
             if (ws.footprint.width() != w || ws.footprint.height() != h) ws.footprint.reset(w, h);
             surface_footprint<T>(gb.positions, gb.normals, gb.pixel_size, ws.footprint.view(), settings.filter.footprint,
                                  settings.filter.normal_threshold_degrees, exec);
+            // Only pixels stretched by at least footprint_min_stretch keep their surface footprint (issue 13).
+            if (const T t = settings.filter.footprint_min_stretch; t > T(1))
+                exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+                    for (std::size_t y = y0; y < y1; ++y)
+                        for (std::size_t x = 0; x < w; ++x)
+                            if (!(ws.footprint(x, y) >= t * gb.pixel_size(x, y))) ws.footprint(x, y) = gb.pixel_size(x, y);
+                });
             footprint = ws.footprint.cview();
         }
         guides<const_image_view<glm::vec<3, T>>, Ids, no_guide> g{gb.normals, gb.ids, {}};

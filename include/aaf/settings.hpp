@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 
 #include "area_light.hpp"
@@ -24,6 +25,22 @@ enum class formula_form {
     authors,
 };
 
+/// Which light the filter width's light term assumes (FORMULAS.md §1.4, §1.8; DEVIATIONS.md, issue 13).
+/// The paper derives β = σ s2/(kμ) for a Gaussian light of standard deviation σ = √A/2, but aaf samples the
+/// parallelogram uniformly (light_weighting::uniform): a square of side 2σ whose standard deviation per axis
+/// is σ/√3. Its visibility is a ramp with kinks at the penumbra's ends, not an erf, and a Gaussian of width β
+/// brightens the umbra's edge and darkens the lit edge by ≈ 0.4 β/P (P the penumbra's width): the structured
+/// bias of the scenes' error images. Matching β to the light that is actually sampled shrinks that bias.
+enum class light_profile {
+    /// The paper's model: β's light term is σ s2/(kμ), σ = √A/2 the Gaussian's standard deviation. Default.
+    gaussian,
+    /// The uniform parallelogram aaf samples: β's light term uses its per-axis standard deviation σ/√3
+    /// (same second moment, hence the same low-frequency spectrum, as the box), so β is √3 narrower where
+    /// the filter is light-limited. The sample count n is unchanged (it stays the paper's); still
+    /// consistent (β → 0 as μ → ∞).
+    box,
+};
+
 /// Constants of the formulas (FORMULAS.md §1.8). Units: none unless stated.
 template <class T = float>
 struct formula_settings {
@@ -32,6 +49,7 @@ struct formula_settings {
     T mu = 2;                                 ///< filter shrink / sample increase factor; [1, ∞), paper 2
     T alpha = 1;                              ///< pixel-bandwidth scale; (0, ∞), paper 1
     T max_slope = T(1e6);                     ///< guard: slopes are capped here (d2 ≥ d1/(1+max_slope)); > 0
+    light_profile light = light_profile::gaussian;  ///< the light β's light term assumes (n is unaffected)
 };
 
 /// What the adaptive pass asks the tracer for each of its samples (the initial pass always asks for distances).
@@ -95,6 +113,10 @@ struct filter_settings {
     /// Image-space offsets only: the footprint β is divided by (render_frame computes it with
     /// surface_footprint from the G-buffer's positions and normals when it is not `camera`).
     pixel_footprint footprint = pixel_footprint::camera;
+    /// With a surface footprint: the stretch (surface footprint / camera d) below which a pixel keeps the
+    /// camera's d; [1, ∞), 1 = the surface footprint everywhere. Tilt matters where a surface is seen at a
+    /// grazing angle; a mildly tilted pixel gains little from a narrower kernel and pays in noise at high μ.
+    T footprint_min_stretch = 1;
 };
 
 /// Everything one frame needs besides buffers, light and tracer.
@@ -151,6 +173,8 @@ void validate(const formula_settings<T>& s, const char* function = "validate") {
     require(std::isfinite(s.alpha) && s.alpha > T(0), function, "settings.formulas.alpha", "must be finite and > 0 (got " + std::to_string(s.alpha) + ")");
     require(std::isfinite(s.max_slope) && s.max_slope > T(0), function, "settings.formulas.max_slope",
             "must be finite and > 0 (got " + std::to_string(s.max_slope) + ")");
+    require(s.light == light_profile::gaussian || s.light == light_profile::box, function, "settings.formulas.light",
+            "must be light_profile::gaussian or light_profile::box (got " + std::to_string(static_cast<int>(s.light)) + ")");
 }
 
 inline void validate(const sampling_settings& s, const char* function = "validate") {
@@ -184,6 +208,9 @@ void validate(const filter_settings<T>& s, const char* function = "validate") {
         require(false, function, "settings.filter.spread_radius", "must be <= 1024 (got " + std::to_string(s.spread_radius) + ")");
     if (!(s.footprint == pixel_footprint::camera || s.footprint == pixel_footprint::surface_area || s.footprint == pixel_footprint::surface_max))
         require(false, function, "settings.filter.footprint", "must be a pixel_footprint (got " + std::to_string(static_cast<int>(s.footprint)) + ")");
+    if (!(s.footprint_min_stretch >= T(1) && s.footprint_min_stretch <= std::numeric_limits<T>::max()))
+        require(false, function, "settings.filter.footprint_min_stretch",
+                "must be finite and >= 1 (got " + std::to_string(s.footprint_min_stretch) + ")");
 }
 
 template <class T>
