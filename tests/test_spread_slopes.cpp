@@ -11,6 +11,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include <aaf/executor.hpp>
 #include <aaf/filter.hpp>
@@ -220,4 +221,67 @@ TEST_CASE("spread_slopes: invalid arguments throw naming the argument, slopes un
     expect("radius", [&] { aaf::spread_slopes<float>(slopes.view(), scratch.view(), 1025u); });
     expect("slopes", [&] { aaf::spread_slopes<float>(aaf::image_view<sp>{}, scratch.view(), 3u); });
     expect("scratch", [&] { aaf::spread_slopes<float>(slopes.view(), aaf::image_view<sp>(nullptr, 12, 8), 3u); });
+}
+
+namespace {
+/// Slopes with every kind of value the max/min rule must treat exactly as the scalar loop: occluded pixels,
+/// "no occluder" ones, NaN and ±Inf slopes, −0, denormals; in a buffer of `Slot`s (one slope pair each,
+/// plus padding when Slot is larger) so that the same pixels can be seen through a packed view (the
+/// vector path) or through one with a pixel stride (the scalar rule).
+template <class T>
+struct odd_pair {
+    aaf::slope_pair<T> p;
+    T pad;
+};
+
+template <class T>
+void fill_odd_slopes(std::vector<aaf::slope_pair<T>>& v, aaf_ref::rng& r) {
+    constexpr T inf = std::numeric_limits<T>::infinity(), nan = std::numeric_limits<T>::quiet_NaN();
+    for (aaf::slope_pair<T>& s : v) {
+        s = {};
+        const double z = r.uniform();
+        if (z < 0.4) s = {T(r.uniform(0.0, 20.0)), T(r.uniform(0.0, 5.0))};
+        else if (z < 0.45) s = {nan, T(1)};
+        else if (z < 0.5) s = {T(2), nan};
+        else if (z < 0.55) s = {inf, T(0.5)};
+        else if (z < 0.6) s = {T(-0.0), T(-0.0)};
+        else if (z < 0.62) s = {std::numeric_limits<T>::denorm_min(), T(0)};
+        else if (z < 0.64) s = {T(3), -inf};
+    }
+}
+
+template <class T>
+void check_vector_path_equals_scalar_rule(std::uint64_t seed) {
+    aaf_ref::rng r(seed);
+    const std::size_t w = 1 + r.below(220), h = 1 + r.below(40);
+    const auto radius = static_cast<std::uint32_t>(r.below(3) == 0 ? 1 + r.below(60) : 1 + r.below(12));
+    CAPTURE(seed, w, h, radius);
+    std::vector<aaf::slope_pair<T>> packed(w * h), packed_scratch(w * h);
+    std::vector<odd_pair<T>> strided(w * h), strided_scratch(w * h);
+    fill_odd_slopes<T>(packed, r);
+    for (std::size_t i = 0; i < w * h; ++i) strided[i].p = packed[i];
+    const aaf::image<std::uint32_t> ids = random_ids(w, h, seed + 99);
+    const bool with_ids = r.below(2) == 0;
+    using view = aaf::image_view<aaf::slope_pair<T>>;
+    const view pv(packed.data(), w, h), ps(packed_scratch.data(), w, h);
+    const view sv(&strided[0].p, w, h, sizeof(odd_pair<T>)), ss(&strided_scratch[0].p, w, h, sizeof(odd_pair<T>));
+    REQUIRE(pv.packed_rows());
+    REQUIRE_FALSE(sv.packed_rows());
+    if (with_ids) {
+        const aaf::guides g{aaf::no_guide{}, ids.cview()};
+        aaf::spread_slopes<T>(pv, ps, radius, g, aaf::thread_pool(2));
+        aaf::spread_slopes<T>(sv, ss, radius, g);
+    } else {
+        aaf::spread_slopes<T>(pv, ps, radius);
+        aaf::spread_slopes<T>(sv, ss, radius);
+    }
+    std::size_t mismatches = 0;
+    for (std::size_t i = 0; i < w * h; ++i) mismatches += std::memcmp(&packed[i], &strided[i].p, sizeof(packed[i])) != 0;
+    CHECK(mismatches == 0);
+}
+}  // namespace
+
+TEMPLATE_TEST_CASE("spread_slopes: the vector passes equal the scalar rule bit for bit (NaN, ±Inf, −0, IDs, borders)",
+                   "[spread]", float, double) {
+    for (std::uint64_t seed = 1; seed <= 40; ++seed) check_vector_path_equals_scalar_rule<TestType>(seed);
 }

@@ -26,6 +26,7 @@
 #include "occlusion_stats.hpp"
 #include "settings.hpp"
 #include "simd.hpp"
+#include "simd_exp.hpp"
 
 namespace aaf {
 inline namespace v0 {
@@ -64,13 +65,23 @@ void for_each_accepted_tap(const_image_view<T> src, const G& g, const guide_cent
     }
 }
 
+/// |d|² − (d·n)², clamped below at 0 (NaN stays NaN), for a scalar T or a vector of lanes: one source
+/// expression for both, so that a compiler that contracts a·b + c into fma contracts both alike (the
+/// light-plane lanes and the scalar rule then compute the same bits at any -march).
+template <class V>
+[[nodiscard]] V plane_distance2(V dx, V dy, V dz, V nx, V ny, V nz) noexcept {
+    const V along = dx * nx + dy * ny + dz * nz;
+    const V d2 = (dx * dx + dy * dy + dz * dz) - along * along;
+    const V zero = V{};
+    return zero > d2 ? zero : d2;  // the operand order of x86's max: one instruction
+}
+
 /// Squared distance between the centre `p` and a neighbour at `q`, projected on the light plane (§1.11).
 template <class T>
 [[nodiscard]] T light_plane_distance2(const glm::vec<3, T>& q, const glm::vec<3, T>& p,
                                       const glm::vec<3, T>& light_normal) noexcept {
     const glm::vec<3, T> dp = q - p;
-    const T along = glm::dot(dp, light_normal);
-    return std::max(glm::dot(dp, dp) - along * along, T(0));  // NaN stays NaN (std::max keeps its first argument)
+    return plane_distance2<T>(dp.x, dp.y, dp.z, light_normal.x, light_normal.y, light_normal.z);
 }
 
 /// The same for neighbour (nx, ny) of the guides' positions.
@@ -344,6 +355,7 @@ struct pass_workspace {
     std::vector<unsigned char> lok, rok;  // light plane: the lanes' accepted taps
     std::vector<std::size_t> left, right;  // image space, vectors: the rows' elements of lane 0's neighbours at ∓k
     block_state<T> block;                  // vertical image-space pass, vectors
+    std::vector<T> block_inv_two_beta2;    // vertical light-plane pass, vectors: the block's 1/(2β²)
 
     explicit pass_workspace(std::size_t w) : st(w), lok(filter_lane_block), rok(filter_lane_block) {}
 };
@@ -507,8 +519,104 @@ void image_row_vector(std::size_t w, std::size_t centre_at, const Rows& rows, co
 }
 #endif
 
-/// Light-plane taps at distance k: the guide masks vectorise; the distances, std::exp and the sums run
-/// per lane in the scalar order (−k side, then +k side). `Tangent`: distances are projected on each
+/// The light-plane weight of a tap, e^(−distance²/(2β²)), for a scalar or a vector of lanes: one definition
+/// (exp_nonpositive, simd_exp.hpp) so that the vector lanes and the scalar remainder compute the same bits.
+/// std::exp per tap was 8–14x the cost of the image-space filter (docs/DEVIATIONS.md: within 2 ulp of it;
+/// weights below 2.5e−38 in float are 0).
+template <class T, class V>
+[[nodiscard]] V light_plane_weight(V exponent) noexcept {
+    using U = std::conditional_t<sizeof(T) == 8, std::uint64_t, std::uint32_t>;
+#if AAF_SIMD_BYTES > 0
+    if constexpr (!std::is_same_v<V, T>) {
+        typedef U uvec __attribute__((vector_size(sizeof(V))));
+        return exp_nonpositive<T, V, uvec>(exponent);
+    } else
+#endif
+    {
+        return exp_nonpositive<T, V, U>(exponent);
+    }
+}
+
+#if AAF_SIMD_BYTES > 0
+/// Light-plane (or, `Tangent`, tangent-plane) taps of `Groups` vectors of lanes starting at lane `x0` of
+/// the row whose centres are element `centre_at` of `rows`, over all their distances, each lane's state in
+/// registers (as image_lane_groups): the distance projected on the plane, the weight light_plane_weight
+/// and the masks in vectors. Each lane performs the arithmetic of light_plane_taps (the scalar rule, and
+/// the per-pixel definition with the same exp) in the same order — the same glm expression for the
+/// distance, the −k side then the +k side, a rejected tap a select — so the results are the same bits.
+template <std::size_t Groups, bool Tangent, class T, class Rows>
+void light_plane_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& rows,
+                             const std::size_t* AAF_DETAIL_RESTRICT left, const std::size_t* AAF_DETAIL_RESTRICT right,
+                             const T* AAF_DETAIL_RESTRICT radius, const T* AAF_DETAIL_RESTRICT inv_two_beta2,
+                             const glm::vec<3, T>& ln, T cos_threshold, T* AAF_DETAIL_RESTRICT sum,
+                             T* AAF_DETAIL_RESTRICT wsum) noexcept {
+    using S = simd<T>;
+    using vec = typename S::vec;
+    using mask = typename S::mask;
+    constexpr std::size_t N = S::lanes;
+    constexpr bool normals = Rows::normals, ids = Rows::ids;
+    const T* AAF_DETAIL_RESTRICT v = rows.v;
+    vec s[Groups], ws[Groups], r[Groups], a[Groups], cpx[Groups], cpy[Groups], cpz[Groups];  // a: −1/(2β²)
+    [[maybe_unused]] vec cnx[Groups], cny[Groups], cnz[Groups];
+    [[maybe_unused]] typename S::id cid[Groups];
+    for (std::size_t g = 0; g < Groups; ++g) {
+        const std::size_t x = x0 + g * N, c = centre_at + x;
+        r[g] = S::load(radius + x);
+        a[g] = -S::load(inv_two_beta2 + x);  // −1/(2β²): d²·(−a) has the bits of −d²·a
+        s[g] = S::load(v + c);
+        ws[g] = S::splat(T(1));
+        cpx[g] = S::load(&rows.px[c]), cpy[g] = S::load(&rows.py[c]), cpz[g] = S::load(&rows.pz[c]);
+        if constexpr (normals) cnx[g] = S::load(&rows.nx[c]), cny[g] = S::load(&rows.ny[c]), cnz[g] = S::load(&rows.nz[c]);
+        if constexpr (ids) cid[g] = S::template load<typename S::id>(&rows.id[c]);
+    }
+    const std::size_t steps = largest_radius(radius + x0, Groups * N);
+    const vec threshold = S::splat(cos_threshold);
+    const vec lnx = S::splat(ln.x), lny = S::splat(ln.y), lnz = S::splat(ln.z);
+    const auto tap = [&](std::size_t g, std::size_t i, vec distance) {
+        const vec value = S::load(v + i);
+        mask ok = distance <= r[g];
+        // False for ±Inf and NaN; with normals, tap_rows gave such values a NaN normal instead.
+        if constexpr (!normals) ok = ok & S::finite(value);
+        if constexpr (ids) ok = ok & S::equal(S::template load<typename S::id>(&rows.id[i]), cid[g]);
+        if constexpr (normals)
+            ok = ok & (cnx[g] * S::load(&rows.nx[i]) + cny[g] * S::load(&rows.ny[i]) + cnz[g] * S::load(&rows.nz[i]) >= threshold);
+        // light_plane_distance2: dp = q − p; |dp|² − (dp·n)², clamped below at 0 (NaN stays NaN).
+        const vec dx = S::load(&rows.px[i]) - cpx[g], dy = S::load(&rows.py[i]) - cpy[g], dz = S::load(&rows.pz[i]) - cpz[g];
+        vec d2;
+        if constexpr (Tangent) d2 = plane_distance2<vec>(dx, dy, dz, cnx[g], cny[g], cnz[g]);
+        else d2 = plane_distance2<vec>(dx, dy, dz, lnx, lny, lnz);
+        const vec weight = light_plane_weight<T>(d2 * a[g]);
+        ok = ok & (weight == weight);  // a NaN position (the weight is never ±Inf)
+        s[g] = S::select(ok, s[g] + weight * value, s[g]);
+        ws[g] = S::select(ok, ws[g] + weight, ws[g]);
+    };
+    for (std::size_t k = 1; k <= steps; ++k) {
+        const vec distance = S::splat(static_cast<T>(k));
+        const std::size_t l = left[k] + x0, rr = right[k] + x0;
+        for (std::size_t g = 0; g < Groups; ++g) {
+            tap(g, l + g * N, distance);
+            tap(g, rr + g * N, distance);
+        }
+    }
+    for (std::size_t g = 0; g < Groups; ++g) S::store(sum + x0 + g * N, s[g]), S::store(wsum + x0 + g * N, ws[g]);
+}
+
+/// Light-plane taps of every lane of a row of `w` ≥ simd<T>::lanes centres (see light_plane_lane_groups):
+/// single vectors, the last one ending at lane w − 1 (it may redo lanes of the previous one: same bits).
+template <bool Tangent, class T, class Rows>
+void light_plane_row_vector(std::size_t w, std::size_t centre_at, const Rows& rows, const std::size_t* left,
+                            const std::size_t* right, const T* radius, const T* inv_two_beta2, const glm::vec<3, T>& ln,
+                            T cos_threshold, T* sum, T* wsum) noexcept {
+    constexpr std::size_t N = simd<T>::lanes;
+    for (std::size_t x0 = 0; x0 < w; x0 += N)
+        light_plane_lane_groups<1, Tangent, T>(std::min(x0, w - N), centre_at, rows, left, right, radius, inv_two_beta2,
+                                               ln, cos_threshold, sum, wsum);
+}
+#endif
+
+/// Light-plane taps at distance k: the guide masks vectorise; the distances, the weights and the sums run
+/// per lane in the scalar order (−k side, then +k side). (The path of rows narrower than a vector and of
+/// builds without vectors; light_plane_lane_groups computes the same bits.) `Tangent`: distances are projected on each
 /// centre's own normal (offset_space::tangent_plane) instead of `ln`.
 template <class T, bool Normals, bool Ids, bool Tangent = false>
 void light_plane_taps(std::size_t n, T k, T cos_threshold, const glm::vec<3, T>& ln, const T* AAF_DETAIL_RESTRICT radius,
@@ -535,13 +643,13 @@ void light_plane_taps(std::size_t n, T k, T cos_threshold, const glm::vec<3, T>&
         lok[i] = l;
         rok[i] = r;
     }
-    // The distance through the same glm expression as the per-pixel definition, so that a compiler that
-    // contracts a·b + c into fma contracts both alike (bitwise equal results).
+    // The distance through light_plane_distance2 as the per-pixel definition (plane_distance2: the same
+    // expression as the vector lanes, so that fma contraction treats all alike: bitwise equal results).
     const auto add = [&](std::size_t i, const auto& c) {
         const glm::vec<3, T> p{cpx[i], cpy[i], cpz[i]}, q{c.px[i], c.py[i], c.pz[i]};
         glm::vec<3, T> axis = ln;
         if constexpr (Tangent) axis = {cnx[i], cny[i], cnz[i]};
-        const T weight = std::exp(-light_plane_distance2<T>(q, p, axis) * inv_two_beta2[i]);
+        const T weight = light_plane_weight<T>(-light_plane_distance2<T>(q, p, axis) * inv_two_beta2[i]);
         if (!std::isfinite(weight)) return;  // NaN position
         sum[i] += weight * c.v[i];
         wsum[i] += weight;
@@ -755,6 +863,54 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             }
         }
 #endif
+#if AAF_SIMD_BYTES > 0
+        if constexpr (!horizontal && light_plane) {
+            if (w >= simd<T>::lanes) {
+                // Vertical, light (or tangent) plane, vectors: as in image space above, a column of lanes walks
+                // all rows of the block before the next column, so that the rows within its reach (eight arrays
+                // here: value, normal, ID, position) stay in L1 instead of streaming from L3 for each centre row
+                // (the per-row order measured 2.4x the image-space pass, mostly waiting on memory).
+                block_state<T>& B = ws.block;
+                const std::size_t n_rows = block_end - block;
+                std::size_t reach = 0;
+                for (std::size_t y = block; y < block_end; ++y) reach = std::max(reach, row_reach[y]);
+                const std::size_t R = reach + 1;
+                B.fit(n_rows * w, n_rows * R);
+                if (ws.block_inv_two_beta2.size() < n_rows * w) ws.block_inv_two_beta2.resize(n_rows * w);
+                T* inv_two_beta2 = ws.block_inv_two_beta2.data();
+                for (std::size_t y = block; y < block_end; ++y) {
+                    const std::size_t i = y - block;
+                    const auto C = rows.at((y - first_row) * w);
+                    const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
+                    std::copy_n(st.full_radius.data(), w, &B.full_radius[i * w]);
+                    setup_lanes<true>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, &B.radius[i * w],
+                                      st.a.data(), st.wk.data(), st.sum.data(), st.wsum.data(), &inv_two_beta2[i * w]);
+                    for (std::size_t k = 1; k < R; ++k) {
+                        B.left[i * R + k] = (k <= y ? y - k - first_row : nan_row) * w;
+                        B.right[i * R + k] = (y + k < h ? y + k - first_row : nan_row) * w;
+                    }
+                }
+                constexpr std::size_t N = simd<T>::lanes;
+                for (std::size_t x0 = 0; x0 < w; x0 += N)
+                    for (std::size_t y = block; y < block_end; ++y) {
+                        const std::size_t i = y - block;
+                        light_plane_lane_groups<1, Space == offset_space::tangent_plane, T>(
+                            std::min(x0, w - N), (y - first_row) * w, rows, &B.left[i * R], &B.right[i * R],
+                            &B.radius[i * w], &inv_two_beta2[i * w], light_normal, cos_threshold, &B.sum[i * w],
+                            &B.wsum[i * w]);
+                    }
+                for (std::size_t y = block; y < block_end; ++y) {
+                    const std::size_t i = y - block;
+                    const auto C = rows.at((y - first_row) * w);
+                    normalise_lanes(w, C.v, &B.radius[i * w], &B.sum[i * w], &B.wsum[i * w], st.out.data());
+                    store_row(st.out.data(), dst, y);
+                    std::copy_n(&inv_two_beta2[i * w], w, st.inv_two_beta2.data());  // the scalar rule's 1/(2β²)
+                    fix_non_finite_centres(y, C.v, &B.full_radius[i * w]);
+                }
+                continue;
+            }
+        }
+#endif
         for (std::size_t y = block; y < block_end; ++y) {
             if constexpr (horizontal) rows.load(0, margin, src, g, y);  // the margins keep their NaN values
             const std::size_t centre_at = horizontal ? margin : (y - first_row) * w;  // the centres in `rows`
@@ -793,6 +949,26 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                     for (std::size_t x = 0; x < w; ++x) mk[x] = m1[x], q[x] = m1[x] * m1[x];
                 }
             }
+#if AAF_SIMD_BYTES > 0
+            if constexpr (light_plane) {
+                if (w >= simd<T>::lanes) {  // the lanes' neighbours at ∓k: elements of `rows`, as in image space
+                    const std::size_t reach = largest_radius(st.radius.data(), w);
+                    ws.left.resize(reach + 1), ws.right.resize(reach + 1);
+                    for (std::size_t k = 1; k <= reach; ++k) {
+                        if constexpr (horizontal) {
+                            ws.left[k] = centre_at - k, ws.right[k] = centre_at + k;
+                        } else {
+                            ws.left[k] = (k <= y ? y - k - first_row : nan_row) * w;
+                            ws.right[k] = (y + k < h ? y + k - first_row : nan_row) * w;
+                        }
+                    }
+                    light_plane_row_vector<Space == offset_space::tangent_plane, T>(
+                        w, centre_at, rows, ws.left.data(), ws.right.data(), st.radius.data(), st.inv_two_beta2.data(),
+                        light_normal, cos_threshold, st.sum.data(), st.wsum.data());
+                    vector_done = true;
+                }
+            }
+#endif
             for (std::size_t x0 = 0; x0 < w && !vector_done; x0 += filter_lane_block) {
                 const std::size_t n = std::min(filter_lane_block, w - x0);
                 const std::size_t steps = largest_radius(&st.radius[x0], n);
@@ -978,37 +1154,165 @@ void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
 
 namespace detail {
 
+/// Pixel (x, y) of a spreading pass, the scalar rule: along `Dir`, the max s1 and min s2 of the occluded
+/// neighbours within `radius` (k ascending; with IDs, same object only); in the vertical pass an occluded
+/// pixel of `original` keeps its own slopes.
+template <pass_direction Dir, class T, class G>
+[[nodiscard]] slope_pair<T> spread_pixel(const_image_view<slope_pair<T>> src, const_image_view<slope_pair<T>> original,
+                                         const G& g, std::size_t radius, std::size_t x, std::size_t y) noexcept {
+    if constexpr (Dir == pass_direction::vertical)
+        if (original(x, y).has_occluder()) return original(x, y);  // occluded pixels keep their own slopes
+    const std::size_t pos = Dir == pass_direction::horizontal ? x : y;
+    const std::size_t extent = Dir == pass_direction::horizontal ? src.width() : src.height();
+    const std::size_t lo = pos > radius ? pos - radius : 0;
+    const std::size_t hi = std::min(pos + radius, extent - 1);
+    [[maybe_unused]] std::uint32_t id = 0;
+    if constexpr (G::has_ids) id = g.ids(x, y);
+    slope_pair<T> acc{};
+    for (std::size_t j = lo; j <= hi; ++j) {
+        const std::size_t nx = Dir == pass_direction::horizontal ? j : x;
+        const std::size_t ny = Dir == pass_direction::horizontal ? y : j;
+        if constexpr (G::has_ids)
+            if (g.ids(nx, ny) != id) continue;
+        const slope_pair<T>& v = src(nx, ny);
+        if (!v.has_occluder()) continue;
+        acc.s1 = std::max(acc.s1, v.s1);
+        acc.s2 = std::min(acc.s2, v.s2);
+    }
+    return acc;
+}
+
+#if AAF_SIMD_BYTES > 0
+/// Vectors of consecutive slope pairs, split into their s1 and s2 lanes (the spreading's taps in vectors).
+template <class T>
+struct slope_lanes {
+    using S = simd<T>;
+    using vec = typename S::vec;
+    static constexpr std::size_t N = S::lanes;
+    static_assert(sizeof(slope_pair<T>) == 2 * sizeof(T), "slope_pair must hold s1, s2 without padding");
+
+    /// s1 and s2 of the N pairs at `p` (two loads, two shuffles).
+    static void load(const slope_pair<T>* p, vec& s1, vec& s2) noexcept {
+        const auto* bytes = reinterpret_cast<const unsigned char*>(p);
+        const vec a = S::template load<vec>(bytes), b = S::template load<vec>(bytes + sizeof(vec));
+        split(a, b, s1, s2, std::make_index_sequence<N>{});
+    }
+    /// Writes N pairs (s1, s2) to `p`.
+    static void store(slope_pair<T>* p, vec s1, vec s2) noexcept {
+        vec lo, hi;
+        join(s1, s2, lo, hi, std::make_index_sequence<N>{});
+        auto* bytes = reinterpret_cast<unsigned char*>(p);
+        std::memcpy(bytes, &lo, sizeof lo);
+        std::memcpy(bytes + sizeof lo, &hi, sizeof hi);
+    }
+    template <std::size_t... L>
+    static void split(vec a, vec b, vec& even, vec& odd, std::index_sequence<L...>) noexcept {
+        even = __builtin_shufflevector(a, b, static_cast<int>(2 * L)...);
+        odd = __builtin_shufflevector(a, b, static_cast<int>(2 * L + 1)...);
+    }
+    template <std::size_t... L>
+    static void join(vec s1, vec s2, vec& lo, vec& hi, std::index_sequence<L...>) noexcept {
+        lo = __builtin_shufflevector(s1, s2, static_cast<int>(L % 2 ? N + L / 2 : L / 2)...);
+        hi = __builtin_shufflevector(s1, s2, static_cast<int>(L % 2 ? N + N / 2 + L / 2 : N / 2 + L / 2)...);
+    }
+};
+
+/// Vectors of lanes spread together: independent max/min chains hide the latency of each tap's
+/// compare-and-select (one chain per vector would wait on it every tap).
+inline constexpr std::size_t spread_vector_groups = 4;
+
+/// Spreading of `Groups` vectors of lanes (consecutive pixels from `src`'s and `ids`' first element) whose
+/// taps are all inside the image: the j-th tap (j in [0, taps), ascending as spread_pixel's loop) is at
+/// (first + j)·src_step pixels from the lanes' own in `src`, (first + j)·id_step elements in `ids`. Each
+/// lane performs spread_pixel's comparisons in its order (max as `acc < v ? v : acc`, min as
+/// `v < acc ? v : acc`, a rejected tap a select), so the results are the same bits. `Keep` (vertical):
+/// where `keep` holds an occluded pixel, the lane keeps it.
+template <std::size_t Groups, bool Ids, bool Keep, class T>
+void spread_lane_groups(const slope_pair<T>* src, const std::uint32_t* ids, std::ptrdiff_t first, std::size_t taps,
+                        std::ptrdiff_t src_step, std::ptrdiff_t id_step, const slope_pair<T>* keep,
+                        slope_pair<T>* out) noexcept {
+    using L = slope_lanes<T>;
+    using S = typename L::S;
+    using vec = typename L::vec;
+    constexpr std::size_t N = L::N;
+    const vec inf = S::splat(std::numeric_limits<T>::infinity());
+    vec a1[Groups], a2[Groups];
+    [[maybe_unused]] typename S::id cid[Groups];
+    for (std::size_t g = 0; g < Groups; ++g) {
+        a1[g] = S::splat(T(0)), a2[g] = inf;  // "no occluder", the identity of the max/min
+        if constexpr (Ids) cid[g] = S::template load<typename S::id>(ids + g * N);
+    }
+    for (std::size_t j = 0; j < taps; ++j) {
+        const std::ptrdiff_t t = first + static_cast<std::ptrdiff_t>(j);
+        const slope_pair<T>* sj = src + t * src_step;
+        [[maybe_unused]] const std::uint32_t* ij = nullptr;
+        if constexpr (Ids) ij = ids + t * id_step;
+        for (std::size_t g = 0; g < Groups; ++g) {
+            vec s1, s2;
+            L::load(sj + g * N, s1, s2);
+            typename S::mask ok = s2 < inf;  // has_occluder
+            if constexpr (Ids) ok = ok & S::equal(S::template load<typename S::id>(ij + g * N), cid[g]);
+            a1[g] = S::select(ok & (a1[g] < s1), s1, a1[g]);
+            a2[g] = S::select(ok & (s2 < a2[g]), s2, a2[g]);
+        }
+    }
+    for (std::size_t g = 0; g < Groups; ++g) {
+        if constexpr (Keep) {
+            vec k1, k2;
+            L::load(keep + g * N, k1, k2);
+            const typename S::mask occluded = k2 < inf;
+            a1[g] = S::select(occluded, k1, a1[g]), a2[g] = S::select(occluded, k2, a2[g]);
+        }
+        L::store(out + g * N, a1[g], a2[g]);
+    }
+}
+#endif
+
+/// One spreading pass over rows [y_begin, y_end) of `dst` (spread_pixel for every pixel): in vectors of
+/// pixels where the views' rows are packed and the taps are inside the image, by the scalar rule elsewhere
+/// (the borders, narrow images, strided views, builds without vectors).
 template <pass_direction Dir, class T, class G>
 void spread_pass(const_image_view<slope_pair<T>> src, image_view<slope_pair<T>> dst, const_image_view<slope_pair<T>> original,
                  const G& g, std::size_t radius, std::size_t y_begin, std::size_t y_end) noexcept {
-    const std::size_t w = src.width(), h = src.height();
+    [[maybe_unused]] constexpr bool horizontal = Dir == pass_direction::horizontal;
+    const std::size_t w = src.width();
+    [[maybe_unused]] const std::size_t h = src.height();
     for (std::size_t y = y_begin; y < y_end; ++y) {
-        for (std::size_t x = 0; x < w; ++x) {
-            if constexpr (Dir == pass_direction::vertical) {
-                if (original(x, y).has_occluder()) {  // occluded pixels keep their own slopes
-                    dst(x, y) = original(x, y);
-                    continue;
-                }
-            }
-            const std::size_t pos = Dir == pass_direction::horizontal ? x : y;
-            const std::size_t extent = Dir == pass_direction::horizontal ? w : h;
-            const std::size_t lo = pos > radius ? pos - radius : 0;
-            const std::size_t hi = std::min(pos + radius, extent - 1);
-            [[maybe_unused]] std::uint32_t id = 0;
-            if constexpr (G::has_ids) id = g.ids(x, y);
-            slope_pair<T> acc{};
-            for (std::size_t j = lo; j <= hi; ++j) {
-                const std::size_t nx = Dir == pass_direction::horizontal ? j : x;
-                const std::size_t ny = Dir == pass_direction::horizontal ? y : j;
-                if constexpr (G::has_ids)
-                    if (g.ids(nx, ny) != id) continue;
-                const slope_pair<T>& v = src(nx, ny);
-                if (!v.has_occluder()) continue;
-                acc.s1 = std::max(acc.s1, v.s1);
-                acc.s2 = std::min(acc.s2, v.s2);
-            }
-            dst(x, y) = acc;
+        std::size_t x = 0;
+#if AAF_SIMD_BYTES > 0
+        using L = slope_lanes<T>;
+        constexpr std::size_t N = L::N, G4 = spread_vector_groups;
+        bool packed = src.packed_rows() && dst.packed_rows() && original.packed_rows();
+        if constexpr (G::has_ids) packed = packed && g.ids.packed_rows();
+        // Horizontal: lanes [x, x + N) whose taps x − r … x + N − 1 + r are all in the row. Vertical: every
+        // column; the rows within reach are the same for all lanes.
+        const std::size_t v_begin = horizontal ? radius : 0;
+        const std::size_t v_end = horizontal ? (w >= 2 * radius + N ? w - radius : 0) : (w >= N ? w : 0);
+        if (packed && v_end > v_begin) {
+            for (; x < v_begin; ++x) dst(x, y) = spread_pixel<Dir, T>(src, original, g, radius, x, y);
+            const std::size_t lo = horizontal ? 0 : (y > radius ? y - radius : 0);
+            const std::size_t taps = horizontal ? 2 * radius + 1 : std::min(y + radius, h - 1) - lo + 1;
+            // The taps' steps: 1 pixel along a row, a row stride down a column (in pixels, in IDs).
+            const auto step = [&](const auto& view) {
+                using U = std::remove_cvref_t<decltype(view(0, 0))>;
+                return horizontal ? std::ptrdiff_t{1} : static_cast<std::ptrdiff_t>(view.row_stride() / sizeof(U));
+            };
+            const std::ptrdiff_t src_step = step(src);
+            std::ptrdiff_t id_step = 0;
+            if constexpr (G::has_ids) id_step = step(g.ids);
+            const std::ptrdiff_t first = horizontal ? -static_cast<std::ptrdiff_t>(radius)
+                                                    : static_cast<std::ptrdiff_t>(lo) - static_cast<std::ptrdiff_t>(y);
+            const auto run = [&](auto groups, std::size_t x0) {
+                const std::uint32_t* id = nullptr;
+                if constexpr (G::has_ids) id = &g.ids(x0, y);
+                spread_lane_groups<decltype(groups)::value, G::has_ids, !horizontal, T>(
+                    &src(x0, y), id, first, taps, src_step, id_step, &original(x0, y), &dst(x0, y));
+            };
+            for (; x + G4 * N <= v_end; x += G4 * N) run(std::integral_constant<std::size_t, G4>{}, x);
+            for (; x + N <= v_end; x += N) run(std::integral_constant<std::size_t, 1>{}, x);
         }
+#endif
+        for (; x < w; ++x) dst(x, y) = spread_pixel<Dir, T>(src, original, g, radius, x, y);
     }
 }
 
