@@ -15,6 +15,11 @@
 //
 //   scripts/bench BM_frame
 //
+// BM_per_sample_cost/bunny/640x480/threads:1: one gathering pass (9 samples per pixel, gather_occlusion) on
+// the same G-buffer with a tracer that does nothing, once per sample pattern, beside the same pass with the
+// examples' BVH and (AAF_WITH_EMBREE) Embree: <form>_ns = ns of the calling thread's CPU time per traced
+// sample, so aaf's own cost per sample stands next to a real tracer's cost per ray (issue 14).
+//
 // With Embree (AAF_WITH_EMBREE): BM_frame_tracers/bunny/640x480/threads:T renders the same frame (same
 // G-buffer, same settings, same samples) with each tracer form in turn within every iteration, so that a
 // change in the machine's load hits them alike:
@@ -33,6 +38,7 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <ctime>
 #include <cstdint>
 #include <exception>
 #include <functional>
@@ -120,6 +126,69 @@ BENCHMARK(BM_frame)
     ->ArgNames({"threads", "light_plane"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+/// A tracer that does nothing: every segment is unoccluded. What is left is aaf's own per-sample work.
+struct null_tracer {
+    [[nodiscard]] aaf::occluder_span<float> occluder_span(const aaf::shadow_segment<float>&) const noexcept { return {}; }
+};
+
+/// CPU time of the calling thread in seconds (robust to other processes sharing the cores).
+double thread_cpu_seconds() {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+/// aaf's own cost per shadow sample (sample generation, segments, offsets, statistics) with a tracer that
+/// does nothing, for every sample pattern, beside the cost per ray of the examples' BVH (and Embree's,
+/// when built with it) on the same G-buffer, light and samples: the bunny at 640x480, 9 samples per
+/// pixel, one gathering pass (gather_occlusion, distances), 1 thread. Every form runs once per iteration,
+/// in turns; times are the calling thread's CPU time. Counters: <form>_ns = ns per traced sample.
+void BM_per_sample_cost(benchmark::State& state) {
+    const frame_scene& f = get_scene();
+    if (!f.error.empty()) {
+        state.SkipWithError(f.error.c_str());
+        return;
+    }
+    const std::size_t w = f.scene.width, h = f.scene.height;
+    const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{f.g.positions.cview(), f.g.normals.cview(),
+                                                                       f.g.pixel_size.cview(), f.g.ids.cview()};
+    aaf::image<aaf::occlusion_stats<float>> stats(w, h);
+    const auto gather = [&](const auto& tracer, aaf::sample_pattern pattern) {
+        aaf::sampling_settings s;
+        s.pattern = pattern;
+        stats.fill({});
+        const double t0 = thread_cpu_seconds();
+        const std::uint64_t rays = aaf::gather_occlusion(gb, f.scene.light, tracer, s, 0, s.initial_samples, stats.view());
+        benchmark::DoNotOptimize(stats.data());
+        return std::pair<double, double>(thread_cpu_seconds() - t0, static_cast<double>(rays));
+    };
+    using form = std::pair<const char*, std::function<std::pair<double, double>()>>;
+    std::vector<form> forms = {
+        {"null_stratified", [&] { return gather(null_tracer{}, aaf::sample_pattern::stratified); }},
+        {"null_regular_grid", [&] { return gather(null_tracer{}, aaf::sample_pattern::regular_grid); }},
+        {"null_low_discrepancy", [&] { return gather(null_tracer{}, aaf::sample_pattern::low_discrepancy); }},
+        {"bvh", [&] { return gather(*f.tree, aaf::sample_pattern::stratified); }},
+    };
+#if AAF_EXAMPLES_EMBREE
+    static const std::unique_ptr<aaf_examples::embree_tracer> embree =
+        std::make_unique<aaf_examples::embree_tracer>(f.scene.vertices, f.scene.triangles);
+    forms.push_back({"embree", [&] { return gather(*embree, aaf::sample_pattern::stratified); }});
+#endif
+    std::vector<double> seconds(forms.size(), 0.0), rays(forms.size(), 0.0);
+    bool forward = true;
+    for (auto _ : state) {
+        for (std::size_t k = 0; k < forms.size(); ++k) {
+            const std::size_t i = forward ? k : forms.size() - 1 - k;
+            const auto [t, r] = forms[i].second();
+            seconds[i] += t, rays[i] += r;
+        }
+        forward = !forward;
+    }
+    for (std::size_t i = 0; i < forms.size(); ++i) state.counters[std::string(forms[i].first) + "_ns"] = 1e9 * seconds[i] / rays[i];
+    state.counters["samples_per_frame"] = rays[0] / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_per_sample_cost)->Name("BM_per_sample_cost/bunny/640x480/threads:1")->Unit(benchmark::kMillisecond);
 
 #if AAF_EXAMPLES_EMBREE
 // Views of a tracer that show aaf only some of its queries, so that render_frame takes the form measured.

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <vector>
@@ -448,5 +449,82 @@ TEST_CASE("gather_visibility: same visibility as gather_occlusion under every we
             if (b.visible_weight != f.visible_weight || b.total_weight != f.total_weight) ++changed;
         }
         CHECK(changed > 0);
+    }
+}
+
+namespace {
+
+/// A tracer whose answer depends on a bit of the segment's direction (so a lane that computed a different
+/// direction would change the statistics) and whose hits lie inside the segment.
+template <class T>
+struct direction_bit_tracer {
+    [[nodiscard]] aaf::occluder_span<T> occluder_span(const aaf::shadow_segment<T>& s) const noexcept {
+        std::uint64_t bits = 0;
+        std::memcpy(&bits, &s.direction.y, sizeof(T));
+        return (bits >> 5) & 1 ? aaf::occluder_span<T>{T(0.25) * s.length, T(0.75) * s.length} : aaf::occluder_span<T>{};
+    }
+};
+
+}  // namespace
+
+TEMPLATE_TEST_CASE("gather_occlusion's vector loops give the bits of the one-sample-at-a-time definition", "[stats][gather]",
+                   float, double) {
+    // prepare_pixel computes every sample's light point, weight and segment in arrays and drops the untraceable
+    // ones afterwards; the plain definition does one sample at a time with light_sample_frame::weight.
+    using T = TestType;
+    using vec3 = glm::vec<3, T>;
+    const std::size_t w = 23, h = 11;
+    aaf::image<vec3> positions(w, h), normals(w, h);
+    aaf::image<T> pixel_size(w, h, T(0.01));
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x) {
+            positions(x, y) = vec3(T(0.1) * T(x), T(0.2 * u(rng)), T(0.1) * T(y));
+            glm::dvec3 n(0.6 * u(rng), 1.0, 0.6 * u(rng));
+            if (x % 7 == 2) n = -n;  // some receivers face away from the light
+            normals(x, y) = x % 11 == 4 ? vec3(0) : vec3(glm::normalize(n));  // and some have no orientation
+        }
+    const aaf::gbuffer<T> gb{positions.cview(), normals.cview(), pixel_size.cview()};
+    for (const bool two_sided : {false, true}) {
+        aaf::area_light<T> light{{T(0.4), T(1.5), T(0.2)}, {T(1), T(0), T(0)}, {T(0), T(0.3), T(1)}};
+        light.two_sided = two_sided;
+        for (const auto weighting : {aaf::light_weighting::uniform, aaf::light_weighting::gaussian, aaf::light_weighting::irradiance}) {
+            for (const auto pattern : {aaf::sample_pattern::stratified, aaf::sample_pattern::low_discrepancy}) {
+                aaf::sampling_settings s;
+                s.weighting = weighting;
+                s.pattern = pattern;
+                const std::uint32_t count = 37;  // more than one vector of lanes, not a multiple of any width
+                aaf::image<aaf::occlusion_stats<T>> stats(w, h, aaf::occlusion_stats<T>{});
+                aaf::gather_occlusion(gb, light, direction_bit_tracer<T>{}, s, 2, count, stats.view());
+                const aaf::light_sample_frame<T> frame(light, weighting);
+                std::vector<glm::vec<2, T>> uv(count);
+                for (std::size_t y = 0; y < h; ++y)
+                    for (std::size_t x = 0; x < w; ++x) {
+                        const vec3 p = positions(x, y), n = aaf::detail::receiver_normal(normals(x, y), p, frame.center);
+                        aaf::generate_samples<T>(pattern, aaf::pixel_key(gb.region, x, y, 2, s.light_index, s.frame_seed), uv);
+                        const vec3 origin = aaf::shadow_ray_origin(p, n, frame.center, s.origin_offset);
+                        const T d1 = std::abs(glm::dot(origin - light.corner, frame.normal));
+                        aaf::occlusion_stats<T> expected{};
+                        std::uint32_t skipped = 0;
+                        for (const auto& xi : uv) {
+                            const vec3 yl = light.point(xi.x, xi.y);
+                            const T wgt = frame.weight(n, yl - p, yl);
+                            const vec3 to = yl - origin;
+                            const T len = glm::length(to);
+                            if (!(wgt > T(0)) || !std::isfinite(wgt) || !(len > T(0)) || !std::isfinite(len)) {
+                                ++skipped;
+                                continue;
+                            }
+                            const aaf::shadow_segment<T> seg{origin, to * (T(1) / len), len};
+                            expected.add_sample(wgt, d1, len, aaf::trace_one<T>(direction_bit_tracer<T>{}, seg));
+                        }
+                        expected.samples += skipped;
+                        INFO("two_sided " << two_sided << " weighting " << static_cast<int>(weighting) << " pattern "
+                                          << aaf::to_string(pattern) << " pixel " << x << ", " << y);
+                        REQUIRE(same(stats(x, y), expected));
+                    }
+            }
+        }
     }
 }

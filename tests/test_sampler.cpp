@@ -17,6 +17,7 @@
 #include <aaf/region.hpp>
 #include <aaf/sampler.hpp>
 
+#include "reference/reference_sampler.hpp"
 #include "support/analytic_scene.hpp"
 
 namespace {
@@ -88,6 +89,23 @@ TEMPLATE_TEST_CASE("every pattern and n from 1 to 150 stays in the unit square",
     // n = 0 writes nothing and does not crash.
     std::vector<glm::vec<2, T>> none;
     aaf::generate_samples<T>(aaf::sample_pattern::stratified, aaf::sample_key{}, none);
+}
+
+TEMPLATE_TEST_CASE("the chunked loops give the bits of the one-sample-at-a-time definition", "[sampler]", float, double) {
+    using T = TestType;
+    // n crosses the chunk size (64) and its multiples, and powers of two (whole Sobol' bit planes).
+    const std::uint32_t counts[] = {1, 2, 3, 7, 9, 16, 20, 63, 64, 65, 100, 127, 128, 129, 200, 257, 1000};
+    for (const aaf::sample_pattern p : all_patterns) {
+        for (const std::uint32_t n : counts) {
+            for (std::uint32_t k = 0; k < 40; ++k) {
+                const aaf::sample_key key{k * 37U, k * 11U + 3U, k % 3U, k % 2U, k * 1000003U};
+                std::vector<glm::vec<2, T>> expected(n);
+                aaf_ref::generate_samples<T>(p, key, expected);
+                INFO(aaf::to_string(p) << " n = " << n << " key " << k);
+                REQUIRE(identical(samples<T>(p, key, n), expected));
+            }
+        }
+    }
 }
 
 TEMPLATE_TEST_CASE("samples are a pure function of (pattern, key, n)", "[sampler]", float, double) {

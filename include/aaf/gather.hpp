@@ -25,6 +25,7 @@
 #include "region.hpp"
 #include "sampler.hpp"
 #include "settings.hpp"
+#include "simd.hpp"
 #include "tracer.hpp"
 
 namespace aaf {
@@ -125,6 +126,9 @@ struct pixel_batch {
     std::vector<occluder_span<T>> hits;
     std::vector<visibility_hit> visible;  // visibility-only passes
     std::vector<pending> pixels;
+    // One pixel's per-sample directions, lengths and weights before the untraceable ones are dropped, one
+    // array per component so that prepare_pixel's arithmetic runs in vector lanes.
+    std::vector<T> dir_x, dir_y, dir_z, lengths, sample_weights;
     trace_scratch<T> trace;
     std::size_t size = 0;                 // segments pending
 
@@ -134,7 +138,29 @@ struct pixel_batch {
     }
 };
 
+/// prepare_pixel's per-sample arithmetic for the uniform weighting, in vector lanes: light point y,
+/// weight (light_sample_frame::weight's tests as 0/1 products: the loop body must be one block), the
+/// unnormalised segment y − origin and its squared length. Values, not references, and restrict-qualified
+/// arrays, so that nothing the loop reads can alias what it writes.
+template <class T, bool TwoSided>
+void uniform_samples(const glm::vec<2, T>* __restrict uv, std::uint32_t count, area_light<T> light, glm::vec<3, T> p,
+                     glm::vec<3, T> n, glm::vec<3, T> light_normal, glm::vec<3, T> origin, T* __restrict to_x,
+                     T* __restrict to_y, T* __restrict to_z, T* __restrict length2, T* __restrict weight) noexcept {
+    for (std::uint32_t i = 0; i < count; ++i) {
+        const glm::vec<3, T> y = light.point(uv[i].x, uv[i].y);
+        const glm::vec<3, T> to_light = y - p;
+        const T cos_r = glm::dot(n, to_light);
+        const T cos_l = -glm::dot(light_normal, to_light);
+        const T faces = TwoSided ? static_cast<T>(!(cos_l == T(0))) : static_cast<T>(cos_l > T(0));
+        weight[i] = static_cast<T>(cos_r > T(0)) * faces;  // 1 where both hold, else 0
+        const glm::vec<3, T> to = y - origin;
+        to_x[i] = to.x, to_y[i] = to.y, to_z[i] = to.z, length2[i] = glm::dot(to, to);
+    }
+}
+
 /// Draws `count` samples for a pixel and appends its segments to `batch` (traced by flush_batch).
+/// Every sample is computed first (branch-free for the uniform weighting, so the loop runs in vector lanes),
+/// then the ones that cannot be traced are dropped: the same values, per sample, as testing each in turn.
 template <class T>
 void prepare_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const area_light<T>& light,
                    const light_sample_frame<T>& frame, const sampling_settings& s, const sample_key& key,
@@ -142,19 +168,44 @@ void prepare_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const area_
     batch.uv.resize(count);
     generate_samples<T>(s.pattern, key, batch.uv);
     batch.reserve(batch.size + count);
+    if (batch.lengths.size() < count) {
+        for (auto* v : {&batch.dir_x, &batch.dir_y, &batch.dir_z, &batch.lengths, &batch.sample_weights}) v->resize(count);
+    }
     // Offset the origin to the light's side of the surface (Wächter–Binder: no epsilon to tune).
     const glm::vec<3, T> origin = shadow_ray_origin(p, n, frame.center, s.origin_offset);
     // d1 from the same point the segments start at, so d2 = d1·(L − t)/L is exact (t, L are from `origin`).
     const T d1 = std::abs(glm::dot(origin - light.corner, frame.normal));
+    const glm::vec<2, T>* uv = batch.uv.data();
+    T* const dx = batch.dir_x.data();
+    T* const dy = batch.dir_y.data();
+    T* const dz = batch.dir_z.data();
+    T* const len = batch.lengths.data();
+    T* const wgt = batch.sample_weights.data();
+    // Light point, weight and the unnormalised segment `to` (kept in dx, dy, dz) with its squared length.
+    const auto store_to = [&](std::uint32_t i, const glm::vec<3, T>& y) {
+        const glm::vec<3, T> to = y - origin;
+        dx[i] = to.x, dy[i] = to.y, dz[i] = to.z, len[i] = glm::dot(to, to);
+    };
+    if (frame.weighting == light_weighting::uniform) {
+        if (frame.two_sided) uniform_samples<T, true>(uv, count, light, p, n, frame.normal, origin, dx, dy, dz, len, wgt);
+        else uniform_samples<T, false>(uv, count, light, p, n, frame.normal, origin, dx, dy, dz, len, wgt);
+    } else {
+        for (std::uint32_t i = 0; i < count; ++i) {
+            const glm::vec<3, T> y = light.point(uv[i].x, uv[i].y);
+            wgt[i] = frame.weight(n, y - p, y);
+            store_to(i, y);
+        }
+    }
+    sqrt_each(len, count);  // glm::length(to), in lanes
+    for (std::uint32_t i = 0; i < count; ++i) {
+        const T inv = T(1) / len[i];  // one division, not three
+        dx[i] *= inv, dy[i] *= inv, dz[i] *= inv;
+    }
     std::size_t traced = batch.size;
     for (std::uint32_t i = 0; i < count; ++i) {
-        const glm::vec<3, T> y = light.point(batch.uv[i].x, batch.uv[i].y);
-        const T wgt = frame.weight(n, y - p, y);
-        const glm::vec<3, T> to = y - origin;
-        const T len = glm::length(to);
-        if (!(wgt > T(0)) || !std::isfinite(wgt) || !(len > T(0)) || !std::isfinite(len)) continue;
-        batch.segments[traced] = {origin, to * (T(1) / len), len};  // one division, not three
-        batch.weights[traced] = wgt;
+        if (!(wgt[i] > T(0)) || !std::isfinite(wgt[i]) || !(len[i] > T(0)) || !std::isfinite(len[i])) continue;
+        batch.segments[traced] = {origin, {dx[i], dy[i], dz[i]}, len[i]};
+        batch.weights[traced] = wgt[i];
         ++traced;
     }
     const std::uint32_t skipped = count - static_cast<std::uint32_t>(traced - batch.size);

@@ -2,6 +2,7 @@
 #pragma once
 // Deterministic per-pixel light-sample sequences on the unit square.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -109,6 +110,9 @@ template <class T>
     return result;
 }
 
+/// Samples per step of generate_samples' vectorisable loops (stack buffers of this many values).
+inline constexpr std::uint32_t sample_chunk = 64;
+
 /// Row layout of the equal-area strata for n samples: `rows` rows; the first `rows_with_extra` rows hold
 /// `base_cols + 1` cells, the rest `base_cols`. Row heights are proportional to cell counts.
 struct strata_layout {
@@ -153,22 +157,53 @@ template <class T>
 ///
 /// Different passes of the same pixel (key.pass) get independent sequences; the adaptive pass therefore
 /// adds *new* stratified samples rather than repeating the initial ones.
+///
+/// Written as short loops over up to `detail::sample_chunk` samples at a time, each doing one step for all of
+/// them (hashes, Sobol' bit planes, scrambles), so that the compiler can run them in vector lanes; every
+/// sample's arithmetic is the plain definition's (tests/test_sampler.cpp compares the bits with it).
 template <class T = float>
 void generate_samples(sample_pattern pattern, const sample_key& key, std::span<glm::vec<2, T>> out) noexcept {
     const auto n = static_cast<std::uint32_t>(out.size());
     if (n == 0) return;
     const std::uint32_t seed = detail::key_hash(key);
+    constexpr std::uint32_t chunk = detail::sample_chunk;
     if (pattern == sample_pattern::low_discrepancy) {
         const std::uint32_t sx = detail::hash32(seed ^ 0x63d83595U);
         const std::uint32_t sy = detail::hash32(seed ^ 0x0b4f3a5dU);
         // Owen scrambling of each dimension decorrelates pixels and keeps every power-of-two prefix a net.
         // The index is not shuffled (Burley's index scramble only matters when padding more dimensions), so
-        // the Sobol' loop runs over the few bits of i < n instead of 32 random bits: ~4x cheaper.
-        for (std::uint32_t i = 0; i < n; ++i)
-            out[i] = {detail::to_unit<T>(detail::owen_scramble(detail::sobol_dim0(i), sx)),
-                      detail::to_unit<T>(detail::owen_scramble(detail::sobol_dim1(i), sy))};
+        // only the few bits of i < n enter Sobol's second dimension. owen_scramble(x) reverses x, scrambles
+        // and reverses back; dimension 0 is reverse_bits(i) and dimension 1 is built reversed (its
+        // generator columns low bit first), so one reversal per dimension is left instead of three.
+        std::uint32_t dim1[chunk];
+        T u[chunk], v[chunk];
+        for (std::uint32_t base = 0; base < n; base += chunk) {
+            const std::uint32_t m = std::min(chunk, n - base);
+            for (std::uint32_t k = 0; k < m; ++k) dim1[k] = 0;
+            std::uint32_t column = 1;  // reversed generator column of bit b
+            for (std::uint32_t b = 0; ((base + m - 1) >> b) != 0; ++b, column ^= column << 1)
+                for (std::uint32_t k = 0; k < m; ++k) dim1[k] ^= column & (0U - (((base + k) >> b) & 1U));
+            for (std::uint32_t k = 0; k < m; ++k) {  // in lanes: the scrambles write plain arrays
+                u[k] = detail::to_unit<T>(detail::reverse_bits(detail::laine_karras(base + k, sx)));
+                v[k] = detail::to_unit<T>(detail::reverse_bits(detail::laine_karras(dim1[k], sy)));
+            }
+            for (std::uint32_t k = 0; k < m; ++k) out[base + k] = {u[k], v[k]};
+        }
         return;
     }
+    const bool jittered = pattern == sample_pattern::stratified;
+    T jitter_x[chunk], jitter_y[chunk];  // the jitter of samples [chunk_start, chunk_start + chunk)
+    std::uint32_t chunk_start = 0;
+    const auto fill_jitter = [&](std::uint32_t first) {
+        chunk_start = first;
+        const std::uint32_t m = std::min(chunk, n - first);
+        for (std::uint32_t k = 0; k < m; ++k) {
+            const std::uint32_t h = detail::hash_combine(seed, first + k);
+            jitter_x[k] = detail::to_unit<T>(h);
+            jitter_y[k] = detail::to_unit<T>(detail::hash32(h ^ 0x68e31da4U));
+        }
+    };
+    if (jittered) fill_jitter(0);
     const detail::strata_layout s = detail::make_strata(n);
     std::uint32_t i = 0;
     for (std::uint32_t r = 0; r < s.rows; ++r) {
@@ -183,18 +218,18 @@ void generate_samples(sample_pattern pattern, const sample_key& key, std::span<g
         const T row_start = row_first / n_t;  // not accumulated: its error stays within a few ulps for any n
         for (std::uint32_t c = 0; c < cols; ++c, ++i) {
             T jx = T(0.5), jy = T(0.5);
-            if (pattern == sample_pattern::stratified) {
-                const std::uint32_t h = detail::hash_combine(seed, i);
-                jx = detail::to_unit<T>(h);
-                jy = detail::to_unit<T>(detail::hash32(h ^ 0x68e31da4U));
+            if (jittered) {
+                if (i - chunk_start == chunk) fill_jitter(i);
+                jx = jitter_x[i - chunk_start];
+                jy = jitter_y[i - chunk_start];
             }
             T u = (static_cast<T>(c) + jx) * inv_cols;
             T v = row_start + jy * row_height;
             // Keep each point in its own half-open stratum (hence in [0, 1)²) even after rounding.
             const T c_t = static_cast<T>(c);
-            if (detail::near_stratum_edge(u, cols_t, c_t, c_t + T(1), u_margin))
+            if (detail::near_stratum_edge(u, cols_t, c_t, c_t + T(1), u_margin)) [[unlikely]]
                 u = detail::nudge_into_stratum(u, cols_t, c_t, c_t + T(1));
-            if (detail::near_stratum_edge(v, n_t, row_first, row_end, v_margin))
+            if (detail::near_stratum_edge(v, n_t, row_first, row_end, v_margin)) [[unlikely]]
                 v = detail::nudge_into_stratum(v, n_t, row_first, row_end);
             out[i] = {u, v};
         }

@@ -14,12 +14,17 @@
 // Widths wider than the target's registers are legal but slow (the compiler splits every operation).
 
 #include <bit>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <limits>
 #include <type_traits>
 #include <utility>
+
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__)
+#include <immintrin.h>
+#endif
 
 #ifndef AAF_SIMD_BYTES
 #if defined(__GNUC__) || defined(__clang__)
@@ -99,6 +104,35 @@ struct simd {
 };
 
 #endif
+
+/// x[i] = √x[i] for i < n, several lanes per instruction on x86 (SSE2, AVX, AVX-512F), one at a time
+/// elsewhere. The same correctly rounded results as std::sqrt, whose errno side effect on negative input
+/// keeps GCC from vectorising a loop that calls it (unless the user builds with -fno-math-errno). A
+/// negative or NaN input gives NaN either way (the callers drop those values).
+template <class T>
+void sqrt_each(T* x, std::size_t n) noexcept {
+    std::size_t i = 0;
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__) && AAF_SIMD_BYTES > 0
+    if constexpr (std::is_same_v<T, float>) {
+#if defined(__AVX512F__)  // the zero-masked forms: GCC 12 warns that _mm512_sqrt_ps's undefined source is uninitialised
+        for (; i + 16 <= n; i += 16) _mm512_storeu_ps(x + i, _mm512_maskz_sqrt_ps(0xFFFF, _mm512_loadu_ps(x + i)));
+#endif
+#if defined(__AVX__)
+        for (; i + 8 <= n; i += 8) _mm256_storeu_ps(x + i, _mm256_sqrt_ps(_mm256_loadu_ps(x + i)));
+#endif
+        for (; i + 4 <= n; i += 4) _mm_storeu_ps(x + i, _mm_sqrt_ps(_mm_loadu_ps(x + i)));
+    } else if constexpr (std::is_same_v<T, double>) {
+#if defined(__AVX512F__)
+        for (; i + 8 <= n; i += 8) _mm512_storeu_pd(x + i, _mm512_maskz_sqrt_pd(0xFF, _mm512_loadu_pd(x + i)));
+#endif
+#if defined(__AVX__)
+        for (; i + 4 <= n; i += 4) _mm256_storeu_pd(x + i, _mm256_sqrt_pd(_mm256_loadu_pd(x + i)));
+#endif
+        for (; i + 2 <= n; i += 2) _mm_storeu_pd(x + i, _mm_sqrt_pd(_mm_loadu_pd(x + i)));
+    }
+#endif
+    for (; i < n; ++i) x[i] = std::sqrt(x[i]);
+}
 
 }  // namespace detail
 }  // namespace v0
