@@ -134,11 +134,9 @@ template <class T>
 using receiver_lanes = one_lane<T>;
 #endif
 
-/// receiver_lanes<T>::lanes receivers prepared at once, one lane per receiver: prepared_receiver's fields,
-/// a vector each.
-template <class T>
+/// S::lanes receivers prepared at once, one lane per receiver: prepared_receiver's fields, a vector each.
+template <class T, class S = receiver_lanes<T>>
 struct prepared_receivers {
-    using S = receiver_lanes<T>;
     typename S::vec u{}, v{}, z{}, depth{}, c0{}, su{}, sv{}, au{}, av{};
     typename S::mask inside{};  ///< set in the lanes inside the map's frustum
 
@@ -169,31 +167,27 @@ template <class T, class V>
     }
 }
 
-/// Prepares receiver_lanes<T>::lanes receivers at once: lane l is point (px, py, pz)[l] with unit normal
-/// (nx, ny, nz)[l] (either orientation), for tests against a width×height map of `format` seen through
-/// `frame`, under bias `b`. Lanes with non-finite input come out as anything: callers mask them.
+/// Prepares S::lanes receivers at once (S: simd<T>, or one_lane<T> for one receiver): lane l is point
+/// (px, py, pz)[l] with unit normal (nx, ny, nz)[l] (either orientation), for tests against a width×height
+/// map of `format` seen through `frame`, under bias `b`. Lanes with non-finite input come out as anything:
+/// callers mask them.
 ///
-/// The one implementation of the setup: prepare_receiver is its lane 0, and the lookup pass runs it on a
-/// vector's lanes of pixels at once (the setup of one receiver at a time was a sixth of the pass's time).
-/// With vector extensions it is not inlined, so that every caller runs the same instructions and a lane's
-/// result cannot depend on which caller asked (a compiler may contract a·b + c into an fma in one inlined
-/// copy and not in another), and the pass equals the per-point lookups bit for bit on every ISA.
-template <class T>
-#if AAF_SIMD_BYTES > 0
-[[gnu::noinline]]
-#endif
-[[nodiscard]] prepared_receivers<T> prepare_lanes(const light_frame<T>& frame, std::size_t width, std::size_t height, depth_format format,
-                                                  const bias_settings<T>& b, typename receiver_lanes<T>::vec px,
-                                                  typename receiver_lanes<T>::vec py, typename receiver_lanes<T>::vec pz,
-                                                  typename receiver_lanes<T>::vec nx, typename receiver_lanes<T>::vec ny,
-                                                  typename receiver_lanes<T>::vec nz) noexcept {
-    using S = receiver_lanes<T>;
+/// The one implementation of the setup: prepare_receiver is its one-lane instance, and the lookup pass runs
+/// it on a vector's lanes of pixels at once (the setup of one receiver at a time was a sixth of the pass's
+/// time). The same operations in the same order in every instance; whether a compiler contracts a·b + c
+/// into an fma can still differ between instances (and between inlined copies), so bit-equal results
+/// are only promised between callers of the same instance through one non-inlined function
+/// (shadow_map_sampler::visibility_lanes).
+template <class T, class S = receiver_lanes<T>>
+[[nodiscard]] prepared_receivers<T, S> prepare_lanes(const light_frame<T>& frame, std::size_t width, std::size_t height, depth_format format,
+                                                     const bias_settings<T>& b, typename S::vec px, typename S::vec py, typename S::vec pz,
+                                                     typename S::vec nx, typename S::vec ny, typename S::vec nz) noexcept {
     using V = typename S::vec;
     using M = typename S::mask;
     const auto splat = [](T x) { return S::splat(x); };
     const auto vmax = [](V x, V y) { return S::select(x < y, y, x); };  // std::max's (x < y ? y : x)
     const auto dot3 = [](V ax, V ay, V az, V bx, V by, V bz) { return ax * bx + ay * by + az * bz; };
-    prepared_receivers<T> r;
+    prepared_receivers<T, S> r;
     const light_view<T>& view = frame.view;
     const bool persp = frame.perspective();
     const T W = static_cast<T>(width), H = static_cast<T>(height), nf = view.near_plane, ff = view.far_plane;
@@ -299,15 +293,12 @@ template <class T>
 }
 
 /// Prepares receiver point `p` with unit normal `n` (either orientation) for tests against a width×height
-/// map of `format` seen through `frame`, under bias `b`: prepare_lanes's lane 0.
+/// map of `format` seen through `frame`, under bias `b`: prepare_lanes for one receiver.
 template <class T>
 [[nodiscard]] prepared_receiver<T> prepare_receiver(const light_frame<T>& frame, std::size_t width, std::size_t height,
                                                     depth_format format, const bias_settings<T>& b, glm::vec<3, T> p,
                                                     glm::vec<3, T> n) noexcept {
-    using S = receiver_lanes<T>;
-    return prepare_lanes(frame, width, height, format, b, S::splat(p.x), S::splat(p.y), S::splat(p.z), S::splat(n.x), S::splat(n.y),
-                         S::splat(n.z))
-        .lane(0);
+    return prepare_lanes<T, one_lane<T>>(frame, width, height, format, b, p.x, p.y, p.z, n.x, n.y, n.z).lane(0);
 }
 
 }  // namespace detail

@@ -158,6 +158,7 @@ public:
     [[nodiscard]] const std::vector<glm::vec<2, T>>& taps() const noexcept { return taps_; }
 
     /// Lit fraction at receiver `p` with unit normal `n` (either orientation); `key` seeds the rotated disc.
+    /// visibility_lanes for one receiver (bit-equal to the pass); many receivers are cheaper through it.
     [[nodiscard]] T visibility(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const sample_key& key = {}) const noexcept {
         T a[6][lanes], out[lanes];
         for (std::size_t l = 0; l < lanes; ++l) a[0][l] = p.x, a[1][l] = p.y, a[2][l] = p.z, a[3][l] = n.x, a[4][l] = n.y, a[5][l] = n.z;
@@ -234,8 +235,9 @@ public:
     /// each array holds `lanes` values, those past `count` are read but ignored; the result goes to out[l]
     /// for l < count. For passes: the receivers' setup runs in the lanes of one vector, and the default 4×4
     /// grid compares each of its rows of texels with one vector compare. visibility() is this function with
-    /// one receiver, so the two agree bit for bit; it is not inlined, so that every caller runs the same
-    /// instructions (an inlined copy could contract a·b + c into an fma where another does not).
+    /// one receiver, so the two agree bit for bit on every ISA; it is not inlined, so that every caller runs
+    /// the same instructions (an inlined copy could contract a·b + c into an fma where another does not,
+    /// which made a first, inlined version differ from visibility() at -march=native).
 #if AAF_SIMD_BYTES > 0
     [[gnu::noinline]]
 #endif
