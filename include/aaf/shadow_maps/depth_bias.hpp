@@ -142,7 +142,7 @@ struct prepared_receivers {
 
     /// Lane `l` as a prepared_receiver.
     [[nodiscard]] prepared_receiver<T> lane(std::size_t l) const noexcept {
-        const auto at = [l](const auto& x) {
+        const auto at = [=](const auto& x) {
             if constexpr (S::lanes == 1) return x;
             else return x[l];
         };
@@ -157,13 +157,16 @@ struct prepared_receivers {
 /// |x| per lane (std::abs: clears the sign bit, also of −0).
 template <class T, class V>
 [[nodiscard]] V abs_lanes(V x) noexcept {
-    if constexpr (std::is_same_v<V, T>) {
-        return std::abs(x);
-    } else {
+#if AAF_SIMD_BYTES > 0
+    if constexpr (!std::is_same_v<V, T>) {
         using I = typename simd<T>::mask;
         using B = typename simd<T>::mask_int;
         constexpr auto magnitude = static_cast<B>(~(std::make_unsigned_t<B>(1) << (8 * sizeof(T) - 1)));
         return std::bit_cast<V>(std::bit_cast<I>(x) & magnitude);
+    } else
+#endif
+    {
+        return std::abs(x);
     }
 }
 
@@ -187,6 +190,10 @@ template <class T, class S = receiver_lanes<T>>
     const auto splat = [](T x) { return S::splat(x); };
     const auto vmax = [](V x, V y) { return S::select(x < y, y, x); };  // std::max's (x < y ? y : x)
     const auto dot3 = [](V ax, V ay, V az, V bx, V by, V bz) { return ax * bx + ay * by + az * bz; };
+    const auto both = [](M a, M b) -> M {  // per-lane "and" (&& for one lane's bool)
+        if constexpr (S::lanes == 1) return a && b;
+        else return a & b;
+    };
     prepared_receivers<T, S> r;
     const light_view<T>& view = frame.view;
     const bool persp = frame.perspective();
@@ -221,8 +228,8 @@ template <class T, class S = receiver_lanes<T>>
     const V s = persp ? lz : splat(T(1));
     const V ndx = lx / (s * view.half_width), ndy = ly / (s * view.half_height);
     r.u = (ndx + T(1)) * T(0.5) * W, r.v = (ndy + T(1)) * T(0.5) * H;
-    M inside = (r.u >= splat(0)) & (r.u <= splat(W)) & (r.v >= splat(0)) & (r.v <= splat(H)) & (lz >= splat(nf)) & (lz <= splat(ff));
-    if (persp) inside = inside & (lz > splat(0));
+    M inside = both(both(both(r.u >= splat(0), r.u <= splat(W)), both(r.v >= splat(0), r.v <= splat(H))), both(lz >= splat(nf), lz <= splat(ff)));
+    if (persp) inside = both(inside, lz > splat(0));
     r.inside = inside;
     // z_tex, its derivative by depth, and the format's quantisation step there.
     V dz_dd;

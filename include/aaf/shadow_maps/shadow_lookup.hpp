@@ -257,7 +257,9 @@ public:
         const detail::prepared_receivers<T> r =
             detail::prepare_lanes(frame_, map_.width(), map_.height(), map_.format, settings_.bias, vpx, vpy, vpz, vnx, vny, vnz);
         // Non-finite receivers and those outside the frustum are lit.
-        const typename S::mask live = finite(vpx) & finite(vpy) & finite(vpz) & finite(vnx) & finite(vny) & finite(vnz) & r.inside;
+        typename S::mask live;
+        if constexpr (S::lanes == 1) live = finite(vpx) && finite(vpy) && finite(vpz) && finite(vnx) && finite(vny) && finite(vnz) && r.inside;
+        else live = finite(vpx) & finite(vpy) & finite(vpz) & finite(vnx) & finite(vny) & finite(vnz) & r.inside;
 #if AAF_SIMD_BYTES > 0
         if constexpr (std::is_same_v<T, float>) {
             if (grid4_lanes_) {
@@ -276,11 +278,13 @@ public:
             }
             const detail::prepared_receiver<T> rl = r.lane(l);
             const sample_key key = needs_key_ ? keys[l] : sample_key{};
+            T lit = T(1);
             switch (settings_.filter) {
-                case shadow_filter::hard: out[l] = hard(rl); break;
-                case shadow_filter::pcf: out[l] = pcf(rl, settings_.pcf.radius, settings_.pcf.radius, key); break;
-                case shadow_filter::pcss: out[l] = pcss(rl, key); break;
+                case shadow_filter::hard: lit = hard(rl); break;
+                case shadow_filter::pcf: lit = pcf(rl, settings_.pcf.radius, settings_.pcf.radius, key); break;
+                case shadow_filter::pcss: lit = pcss(rl, key); break;
             }
+            out[l] = lit;
         }
     }
 
