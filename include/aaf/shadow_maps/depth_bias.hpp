@@ -190,9 +190,9 @@ template <class T, class S = receiver_lanes<T>>
     const auto splat = [](T x) { return S::splat(x); };
     const auto vmax = [](V x, V y) { return S::select(x < y, y, x); };  // std::max's (x < y ? y : x)
     const auto dot3 = [](V ax, V ay, V az, V bx, V by, V bz) { return ax * bx + ay * by + az * bz; };
-    const auto both = [](M a, M b) -> M {  // per-lane "and" (&& for one lane's bool)
-        if constexpr (S::lanes == 1) return a && b;
-        else return a & b;
+    const auto both = [](M x, M y) -> M {  // per-lane "and" (&& for one lane's bool)
+        if constexpr (S::lanes == 1) return x && y;
+        else return x & y;
     };
     prepared_receivers<T, S> r;
     const light_view<T>& view = frame.view;
