@@ -13,12 +13,15 @@
 // * a stored NaN never occludes.
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <span>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -29,6 +32,7 @@
 #include "../image_view.hpp"
 #include "../region.hpp"
 #include "../sampler.hpp"
+#include "../simd.hpp"
 #include "depth_bias.hpp"
 #include "depth_map.hpp"
 #include "poisson_disc.hpp"
@@ -142,6 +146,10 @@ public:
         for (std::uint32_t a = 0; a < side; ++a) grid_1d_.push_back(taps_[a].x);  // the first row's x = every row's
         blocker_taps_ = detail::grid_offsets<T>(settings.pcss.blocker_taps);
         for (std::size_t k = 0; k <= taps_.size(); ++k) grid_lit_.push_back(T(1) - static_cast<T>(k) / static_cast<T>(taps_.size()));
+        needs_key_ = settings.filter != shadow_filter::hard && settings.pcf.pattern == pcf_pattern::rotated_poisson;
+        grid4_lanes_ = std::is_same_v<T, float> && settings.filter == shadow_filter::pcf && settings.pcf.pattern == pcf_pattern::grid &&
+                       !settings.pcf.bilinear && grid_1d_.size() == 4 && map.depth.pixel_stride() == sizeof(float) &&
+                       map.width() < (std::size_t{1} << 23) && map.height() < (std::size_t{1} << 23);
     }
 
     [[nodiscard]] const depth_map_view<T>& map() const noexcept { return map_; }
@@ -150,16 +158,12 @@ public:
     [[nodiscard]] const std::vector<glm::vec<2, T>>& taps() const noexcept { return taps_; }
 
     /// Lit fraction at receiver `p` with unit normal `n` (either orientation); `key` seeds the rotated disc.
+    /// visibility_lanes for one receiver (bit-equal to the pass); many receivers are cheaper through it.
     [[nodiscard]] T visibility(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const sample_key& key = {}) const noexcept {
-        if (!detail::finite3(p) || !detail::finite3(n)) return T(1);
-        const detail::prepared_receiver<T> r = prepare(p, n);
-        if (!r.inside) return T(1);
-        switch (settings_.filter) {
-            case shadow_filter::hard: return hard(r);
-            case shadow_filter::pcf: return pcf(r, settings_.pcf.radius, settings_.pcf.radius, key);
-            case shadow_filter::pcss: return pcss(r, key);
-        }
-        return T(1);
+        T a[6][lanes], out[lanes];
+        for (std::size_t l = 0; l < lanes; ++l) a[0][l] = p.x, a[1][l] = p.y, a[2][l] = p.z, a[3][l] = n.x, a[4][l] = n.y, a[5][l] = n.z;
+        visibility_lanes(a[0], a[1], a[2], a[3], a[4], a[5], 1, out, &key);
+        return out[0];
     }
 
     /// The PCSS penumbra width (world units, at the receiver) this sampler estimates for `p`, or 0 when its
@@ -217,6 +221,71 @@ public:
 #else
         (void)points;
 #endif
+    }
+
+    /// Receivers per visibility_lanes call: the lanes of the widest vector of T the code is compiled for
+    /// (1 without vector extensions).
+    static constexpr std::size_t lanes = detail::receiver_lanes<T>::lanes;
+
+    /// Whether the lookups read the sample key (the rotated disc): passes need not make keys otherwise.
+    [[nodiscard]] bool reads_sample_key() const noexcept { return needs_key_; }
+
+    /// visibility() of `count` ≤ lanes receivers at once: receiver l is (px[l], py[l], pz[l]) with normal
+    /// (nx[l], ny[l], nz[l]) and sample key keys[l] (`keys` may be null when reads_sample_key() is false);
+    /// each array holds `lanes` values, those past `count` are read but ignored; the result goes to out[l]
+    /// for l < count. For passes: the receivers' setup runs in the lanes of one vector, and the default 4×4
+    /// grid compares each of its rows of texels with one vector compare. visibility() is this function with
+    /// one receiver, so the two agree bit for bit on every ISA; it is not inlined, so that every caller runs
+    /// the same instructions (an inlined copy could contract a·b + c into an fma where another does not,
+    /// which made a first, inlined version differ from visibility() at -march=native).
+#if AAF_SIMD_BYTES > 0
+    [[gnu::noinline]]
+#endif
+    void visibility_lanes(const T* px, const T* py, const T* pz, const T* nx, const T* ny, const T* nz, std::size_t count, T* out,
+                          const sample_key* keys) const noexcept {
+        using S = detail::receiver_lanes<T>;
+        using V = typename S::vec;
+        const auto load = [](const T* a) {
+            if constexpr (S::lanes == 1) return *a;
+            else return S::load(a);
+        };
+        const auto finite = [](V x) {
+            if constexpr (S::lanes == 1) return std::isfinite(x);
+            else return S::finite(x);
+        };
+        const V vpx = load(px), vpy = load(py), vpz = load(pz), vnx = load(nx), vny = load(ny), vnz = load(nz);
+        const detail::prepared_receivers<T> r =
+            detail::prepare_lanes(frame_, map_.width(), map_.height(), map_.format, settings_.bias, vpx, vpy, vpz, vnx, vny, vnz);
+        // Non-finite receivers and those outside the frustum are lit.
+        typename S::mask live;
+        if constexpr (S::lanes == 1) live = finite(vpx) && finite(vpy) && finite(vpz) && finite(vnx) && finite(vny) && finite(vnz) && r.inside;
+        else live = finite(vpx) & finite(vpy) & finite(vpz) & finite(vnx) & finite(vny) & finite(vnz) & r.inside;
+#if AAF_SIMD_BYTES > 0
+        if constexpr (std::is_same_v<T, float>) {
+            if (grid4_lanes_) {
+                pcf_grid4_lanes(r, live, count, out);
+                return;
+            }
+        }
+#endif
+        for (std::size_t l = 0; l < count; ++l) {
+            bool lane_live;
+            if constexpr (S::lanes == 1) lane_live = live;
+            else lane_live = live[l] != 0;
+            if (!lane_live) {
+                out[l] = T(1);
+                continue;
+            }
+            const detail::prepared_receiver<T> rl = r.lane(l);
+            const sample_key key = needs_key_ ? keys[l] : sample_key{};
+            T lit = T(1);
+            switch (settings_.filter) {
+                case shadow_filter::hard: lit = hard(rl); break;
+                case shadow_filter::pcf: lit = pcf(rl, settings_.pcf.radius, settings_.pcf.radius, key); break;
+                case shadow_filter::pcss: lit = pcss(rl, key); break;
+            }
+            out[l] = lit;
+        }
     }
 
 private:
@@ -282,6 +351,68 @@ private:
             for (std::size_t a = 0; a < nc; ++a) occluded += static_cast<T>(map_.depth(cols[a], rows[b])) < row_term[b] + col_term[a] ? 1 : 0;
         return grid_lit_[occluded];
     }
+
+#if AAF_SIMD_BYTES > 0
+    /// pcf_grid<4> of the receivers in `r` (radius settings.pcf.radius on both axes), for float maps of packed
+    /// rows: the grid's columns, rows and their bias terms in lanes (the same operations as pcf_grid, lane by
+    /// lane), then per receiver one 4-wide load, add and compare per grid row. Receivers whose grid is not 4
+    /// consecutive columns on 4 rows inside the map (the map's edges, or a radius that skips texels) take
+    /// pcf_grid<4>; receivers not `live` are lit.
+    void pcf_grid4_lanes(const detail::prepared_receivers<T>& r, typename detail::simd<T>::mask live, std::size_t count, T* out) const noexcept {
+        using S = detail::simd<T>;
+        using V = typename S::vec;
+        using I = typename S::mask;  // integer lanes of T's width
+        constexpr std::size_t L = S::lanes;
+        typedef T v4 __attribute__((vector_size(4 * sizeof(T))));
+        typedef typename S::mask_int i4 __attribute__((vector_size(4 * sizeof(T))));
+        const T radius = settings_.pcf.radius;
+        const I wi = I{} + static_cast<typename S::mask_int>(map_.width()), hi = I{} + static_cast<typename S::mask_int>(map_.height());
+        // Lanes that are not live hold garbage or NaN: 0 instead, so that the conversions to integers see
+        // numbers in range (grid4_lanes_ requires a map below 2^23 texels a side, and radius <= 4096).
+        const V u = S::select(live, r.u, V{}), v = S::select(live, r.v, V{});
+        const auto abs_v = [](V x) {
+            constexpr auto magnitude = static_cast<typename S::mask_int>(~(std::make_unsigned_t<typename S::mask_int>(1) << (8 * sizeof(T) - 1)));
+            return std::bit_cast<V>(std::bit_cast<I>(x) & magnitude);
+        };
+        const auto floor_i = [](V x) {  // std::floor, as an integer (|x| < 2^24)
+            const I t = __builtin_convertvector(x, I);     // towards zero
+            return t + (__builtin_convertvector(t, V) > x);  // −1 where that rounded up
+        };
+        alignas(64) typename S::mask_int col0[L], rows[4][L];
+        alignas(64) T col_term[4][L], row_term[4][L];
+        I fast = live, first_col{};
+        for (std::size_t k = 0; k < 4; ++k) {
+            const T o = grid_1d_[k];
+            const I i = floor_i(u + S::splat(radius) * o), j = floor_i(v + S::splat(radius) * o);
+            fast &= (i >= I{}) & (i < wi) & (j >= I{}) & (j < hi);
+            if (k == 0) first_col = i;
+            if (k == 3) fast &= i == first_col + 3;
+            const V du = __builtin_convertvector(i, V) + T(0.5) - u, dv = __builtin_convertvector(j, V) + T(0.5) - v;
+            S::store(col_term[k], r.su * du - r.au * abs_v(du));
+            S::store(row_term[k], r.z - r.c0 + r.sv * dv - r.av * abs_v(dv));
+            std::memcpy(rows[k], &j, sizeof j);
+        }
+        std::memcpy(col0, &first_col, sizeof first_col);
+        for (std::size_t l = 0; l < count; ++l) {
+            if (!live[l]) {
+                out[l] = T(1);
+                continue;
+            }
+            if (!fast[l]) {
+                out[l] = pcf_grid<4>(r.lane(l), radius, radius);
+                continue;
+            }
+            const v4 c = {col_term[0][l], col_term[1][l], col_term[2][l], col_term[3][l]};
+            i4 occluded{};
+            for (std::size_t b = 0; b < 4; ++b) {
+                v4 t;
+                std::memcpy(&t, &map_.depth(static_cast<std::size_t>(col0[l]), static_cast<std::size_t>(rows[b][l])), sizeof t);
+                occluded -= t < row_term[b][l] + c;  // a true comparison is −1
+            }
+            out[l] = grid_lit_[static_cast<std::size_t>(occluded[0] + occluded[1] + occluded[2] + occluded[3])];
+        }
+    }
+#endif
 
     /// Lit fraction over the taps scaled by (ru, rv) texels around the receiver.
     [[nodiscard]] T pcf(const detail::prepared_receiver<T>& r, T ru, T rv, const sample_key& key) const noexcept {
@@ -368,6 +499,8 @@ private:
     std::vector<glm::vec<2, T>> taps_, blocker_taps_;
     std::vector<T> grid_1d_;  ///< the grid's N offsets along one axis
     std::vector<T> grid_lit_;  ///< [k] = 1 − k/taps, the grid's result with k occluded taps (no division per pixel)
+    bool needs_key_ = false;    ///< the kernel reads the sample key (the rotated disc)
+    bool grid4_lanes_ = false;  ///< visibility_lanes may take pcf_grid4_lanes
 };
 
 namespace detail {
@@ -407,33 +540,58 @@ void shadow_lookup(const depth_map_view<T>& map, const gbuffer<T, Ids>& gb, cons
     // Pixels in bands of 8 rows per task, in one of two orders (each pixel's value is independent of the
     // order). When the frame's rows run along the map's rows, row by row: a pixel row then reads the same
     // few map rows from left to right, streams the hardware prefetcher follows, which stay in L1. Otherwise
-    // in 8×8 blocks: row by row, a map whose rows run across the frame's would touch a new cache line per
-    // tap, and a block keeps its texels in cache. Blocks read ~20 map rows at once; with a power-of-two map
-    // pitch (a 2048-texel row is 8 KiB) those all fall in the same L1 sets, which is why row order wins
-    // when the orientation allows it. Blocks prefetch the texels of the block after next
-    // (prefetch_around), so those misses overlap the work on the two blocks before it.
-    constexpr std::size_t block = 8;
-    const bool row_order = detail::frame_rows_along_map_rows(sampler, gb.positions);
+    // in blocks of 8 rows and 8 columns (or a vector's lanes, if more): row by row, a map whose rows run
+    // across the frame's would touch a new cache line per tap, and a block keeps its texels in cache. Blocks
+    // read ~20-30 map rows at once; with a power-of-two map pitch (a 2048-texel row is 8 KiB) those all fall
+    // in the same L1 sets, which is why row order wins when the orientation allows it. Blocks prefetch the
+    // texels of the block after next (prefetch_around), so those misses overlap the work on the two blocks
+    // before it. Pixels go through visibility_lanes a vector's lanes at a time.
+    constexpr std::size_t block = 8, lanes = shadow_map_sampler<T>::lanes, block_w = std::max(block, lanes);
+    const bool row_order = detail::frame_rows_along_map_rows(sampler, gb.positions), keyed = sampler.reads_sample_key();
     exec.parallel_for((h + block - 1) / block, [&](std::size_t b0, std::size_t b1) {
-        const auto one = [&](std::size_t x, std::size_t y) {
-            visibility(x, y) = sampler.visibility(gb.positions(x, y), gb.normals(x, y),
-                                                  pixel_key(region, x, y, 0, settings.light_index, settings.frame_seed));
+        alignas(64) T p[3][lanes], n[3][lanes], out[lanes];
+        sample_key keys[lanes];
+        // Pixels [x0, x1) of row y, a vector's lanes at a time.
+        const auto run = [&](std::size_t x0, std::size_t x1, std::size_t y) {
+            for (std::size_t x = x0; x < x1; x += lanes) {
+                const std::size_t count = std::min(lanes, x1 - x);
+                bool loaded = false;
+#if AAF_SIMD_BYTES > 0
+                if constexpr (sizeof(glm::vec<3, T>) == 3 * sizeof(T)) {  // GLM's packed layout (the default)
+                    if (count == lanes && gb.positions.packed_rows() && gb.normals.packed_rows()) {
+                        using S = detail::simd<T>;
+                        typename S::vec a, b, c;
+                        S::deinterleave3(&gb.positions(x, y).x, a, b, c);
+                        S::store(p[0], a), S::store(p[1], b), S::store(p[2], c);
+                        S::deinterleave3(&gb.normals(x, y).x, a, b, c);
+                        S::store(n[0], a), S::store(n[1], b), S::store(n[2], c);
+                        loaded = true;
+                    }
+                }
+#endif
+                for (std::size_t l = 0; !loaded && l < lanes; ++l) {  // lanes past the row's end: NaN (ignored)
+                    const glm::vec<3, T> pl = l < count ? gb.positions(x + l, y) : glm::vec<3, T>(std::numeric_limits<T>::quiet_NaN());
+                    const glm::vec<3, T> nl = l < count ? gb.normals(x + l, y) : glm::vec<3, T>(std::numeric_limits<T>::quiet_NaN());
+                    p[0][l] = pl.x, p[1][l] = pl.y, p[2][l] = pl.z, n[0][l] = nl.x, n[1][l] = nl.y, n[2][l] = nl.z;
+                }
+                for (std::size_t l = 0; keyed && l < count; ++l) keys[l] = pixel_key(region, x + l, y, 0, settings.light_index, settings.frame_seed);
+                sampler.visibility_lanes(p[0], p[1], p[2], n[0], n[1], n[2], count, out, keys);
+                for (std::size_t l = 0; l < count; ++l) visibility(x + l, y) = out[l];
+            }
         };
         for (std::size_t b = b0; b < b1; ++b) {
             const std::size_t y0 = b * block, y1 = std::min(y0 + block, h);
             if (row_order) {
-                for (std::size_t y = y0; y < y1; ++y)
-                    for (std::size_t x = 0; x < w; ++x) one(x, y);
+                for (std::size_t y = y0; y < y1; ++y) run(0, w, y);
                 continue;
             }
-            for (std::size_t x0 = 0; x0 < w; x0 += block) {
-                if (const std::size_t xa = x0 + 2 * block; xa < w) {
-                    const std::size_t xb = std::min(xa + block, w) - 1, yb = y1 - 1;
+            for (std::size_t x0 = 0; x0 < w; x0 += block_w) {
+                if (const std::size_t xa = x0 + 2 * block_w; xa < w) {
+                    const std::size_t xb = std::min(xa + block_w, w) - 1, yb = y1 - 1;
                     const glm::vec<3, T> corners[4] = {gb.positions(xa, y0), gb.positions(xb, y0), gb.positions(xa, yb), gb.positions(xb, yb)};
                     sampler.prefetch_around(corners);
                 }
-                for (std::size_t y = y0; y < y1; ++y)
-                    for (std::size_t x = x0, x1 = std::min(x0 + block, w); x < x1; ++x) one(x, y);
+                for (std::size_t y = y0; y < y1; ++y) run(x0, std::min(x0 + block_w, w), y);
             }
         }
     });
