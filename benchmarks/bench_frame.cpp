@@ -67,6 +67,11 @@ struct frame_scene {
     std::unique_ptr<aaf_examples::bvh> tree;
     aaf_examples::gbuffer_images g;
     std::string error;  // non-empty: the scene could not be loaded
+
+    /// The G-buffer as render_frame and gather_occlusion read it (views of `g`).
+    [[nodiscard]] aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gbuffer() const {
+        return {g.positions.cview(), g.normals.cview(), g.pixel_size.cview(), g.ids.cview()};
+    }
 };
 
 const frame_scene& get_scene() {
@@ -94,8 +99,7 @@ void BM_frame(benchmark::State& state) {
         return;
     }
     const std::size_t w = f.scene.width, h = f.scene.height;
-    const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{f.g.positions.cview(), f.g.normals.cview(),
-                                                                       f.g.pixel_size.cview(), f.g.ids.cview()};
+    const auto gb = f.gbuffer();
     aaf::frame_settings<float> settings;
     settings.filter.space = state.range(1) ? aaf::offset_space::light_plane : aaf::offset_space::image;
     aaf::frame_workspace<float> ws;
@@ -151,8 +155,7 @@ void BM_per_sample_cost(benchmark::State& state) {
         return;
     }
     const std::size_t w = f.scene.width, h = f.scene.height;
-    const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{f.g.positions.cview(), f.g.normals.cview(),
-                                                                       f.g.pixel_size.cview(), f.g.ids.cview()};
+    const auto gb = f.gbuffer();
     aaf::image<aaf::occlusion_stats<float>> stats(w, h);
     const auto gather = [&](const auto& tracer, aaf::sample_pattern pattern) {
         aaf::sampling_settings s;
@@ -223,8 +226,7 @@ void BM_frame_tracers(benchmark::State& state) {
     const aaf_examples::bvh& tree = *f.tree;
     const aaf_examples::embree_tracer& e = *embree;
     const std::size_t w = f.scene.width, h = f.scene.height;
-    const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{f.g.positions.cview(), f.g.normals.cview(),
-                                                                       f.g.pixel_size.cview(), f.g.ids.cview()};
+    const auto gb = f.gbuffer();
     aaf::frame_workspace<float> ws;
     aaf::image<float> visibility(w, h);
     aaf::thread_pool pool(static_cast<std::size_t>(state.range(0)));
