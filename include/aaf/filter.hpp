@@ -638,6 +638,60 @@ void normalise_lanes(std::size_t w, const T* AAF_DETAIL_RESTRICT cv, const T* AA
     for (std::size_t x = 0; x < w; ++x) out[x] = ((radius[x] > T(0)) & (wsum[x] > T(0))) ? sum[x] / wsum[x] : cv[x];
 }
 
+/// After the horizontal pass filtered row `y` (whose copy in `rows` starts at element `at`): the copy's
+/// values become the pass's results (`dst`'s row, for the vertical pass), and with normals, a result that is
+/// not finite gets a NaN normal x (so that the normal test alone rejects it, as tap_rows::load does) while a
+/// finite result whose input was not finite gets its normal back. `scratch`: w elements.
+template <class T, class Rows, class G>
+void frame_row_to_results(const Rows& rows, std::size_t at, const_image_view<T> dst, const G& g, std::size_t y,
+                          T* scratch) noexcept {
+    const std::size_t w = dst.width();
+    const T* AAF_DETAIL_RESTRICT out = row_of(dst, y, scratch);
+    T* AAF_DETAIL_RESTRICT v = &rows.v[at];
+    if constexpr (Rows::normals) {
+        constexpr T max_finite = std::numeric_limits<T>::max(), nan = std::numeric_limits<T>::quiet_NaN();
+        T* AAF_DETAIL_RESTRICT n = &rows.nx[at];
+        bool restore = false;  // a finite result of a non-finite input (rare)
+        std::size_t x = 0;
+#if AAF_SIMD_BYTES > 0
+        using S = simd<T>;
+        typename S::mask m{};
+        for (; x + S::lanes <= w; x += S::lanes) {
+            const typename S::mask in = S::finite(S::load(v + x)), res = S::finite(S::load(out + x));
+            m |= res & ~in;
+            S::store(n + x, S::select(res, S::load(n + x), S::splat(nan)));
+        }
+        restore = S::any(m);
+#endif
+        for (; x < w; ++x) {
+            const bool in = std::abs(v[x]) <= max_finite, res = std::abs(out[x]) <= max_finite;
+            restore = restore | (res & !in);
+            n[x] = res ? n[x] : nan;
+        }
+        if (restore)
+            for (std::size_t i = 0; i < w; ++i)
+                if (!(std::abs(v[i]) <= max_finite) && std::abs(out[i]) <= max_finite) n[i] = g.normals(i, y).x;
+    }
+    std::copy_n(out, w, v);
+}
+
+/// Elements of NaN values left and right of each row that the horizontal image-space pass reads.
+template <class T>
+[[nodiscard]] std::size_t image_row_margin(const filter_settings<T>& s) noexcept {
+    return s.max_radius + filter_distances_per_sweep;
+}
+
+/// Whether the image-space passes keep the frame's structure-of-arrays copies (`frame`, see filter_pass):
+/// only for the vector path, and only while the margins cost at most as much memory as the rows.
+template <class T>
+[[nodiscard]] bool use_image_frame_rows([[maybe_unused]] std::size_t w, [[maybe_unused]] const filter_settings<T>& s) noexcept {
+#if AAF_SIMD_BYTES > 0
+    return w >= simd<T>::lanes && 2 * image_row_margin(s) <= w;
+#else
+    return false;
+#endif
+}
+
 /// One 1-D pass over centre rows [y_begin, y_end). For each pixel: the Gaussian of the *centre's* width
 /// over the neighbours along `Dir`, skipping neighbours that are non-finite or rejected by a guide,
 /// normalised by the weight sum. A centre with β ≤ 0 (or NaN) is copied; a centre whose neighbours are all
@@ -649,27 +703,40 @@ void normalise_lanes(std::size_t w, const T* AAF_DETAIL_RESTRICT cv, const T* AA
 /// `row_reach[y]` is each row's largest kernel radius: the horizontal pass writes it, the vertical reads it.
 /// `decay` (image space, w·h elements): each pixel's m_1 = exp(−a) (0 without a kernel); the horizontal
 /// pass writes it, the vertical reads it, so each pixel's std::exp runs once, not once per pass.
+/// `frame` (image space, use_image_frame_rows; else null): the structure-of-arrays copies of the whole
+/// frame, h + 1 rows of w + 2·margin elements (row h: NaN, for rows outside the image). The horizontal pass
+/// copies each row there once (instead of into its own row buffer) and, once the row is filtered, replaces
+/// its values by the pass's results and gives the normals of non-finite results a NaN x; the vertical pass
+/// reads those rows in place. Without it the vertical pass copies the rows within reach of each block of
+/// rows, ~1.8 times every row for β up to 10 px, which was ~30 % of the filter's time (issue 14).
 template <pass_direction Dir, offset_space Space, class T, class G>
 void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T> beta, const_image_view<T> pixel_size,
                  const G& g, const glm::vec<3, T>& light_normal, const filter_settings<T>& s, std::size_t y_begin,
-                 std::size_t y_end, std::size_t* row_reach, T* decay, pass_workspace<T>& ws) {
+                 std::size_t y_end, std::size_t* row_reach, T* decay, pass_workspace<T>& ws,
+                 row_buffers<T>* frame = nullptr) {
     constexpr bool horizontal = Dir == pass_direction::horizontal;
     constexpr bool light_plane = Space != offset_space::image;  // world offsets: light or tangent plane
     const std::size_t w = src.width(), h = src.height();
     const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
 
     lane_state<T>& st = ws.st;
-    tap_rows<T, G, Space> rows(ws.rows);
+    tap_rows<T, G, Space> rows(frame ? *frame : ws.rows);
     std::vector<unsigned char>&lok = ws.lok, &rok = ws.rok;  // light plane: the lanes' accepted taps
-    const std::size_t margin =
-        s.max_radius + filter_distances_per_sweep;  // horizontal: NaN elements left and right of the row
+    const std::size_t margin = image_row_margin(s);  // horizontal: NaN elements left and right of the row
     std::size_t first_row = 0;                      // vertical: image row held in buffer row 0
     std::size_t nan_row = 0;  // vertical: the buffer row of NaN values standing for rows outside the image
-    if constexpr (horizontal) {
+    // `frame`: buffer row y holds image row y from element `margin` on; filter_visibility_impl sized it.
+    const std::size_t frame_stride = w + 2 * margin;
+    if (frame) {
+        rows.resize(h + 1, frame_stride);  // already that size: no allocation, the same arrays in every task
+        nan_row = h;
+    } else if constexpr (horizontal) {
         rows.resize(1, w + 2 * margin);
         rows.fill(0, 0, margin);  // `load` writes only [margin, margin + w)
         rows.fill(0, margin + w, w + 2 * margin);
     }
+    // The element of `rows` holding column 0 of buffer row r (vertical: `frame` or the block's copies).
+    const auto row_start = [&](std::size_t r) { return frame ? r * frame_stride + margin : r * w; };
 
     // A non-finite centre with a kernel (rare): the scalar rule, after the row's lanes are stored.
     const auto fix_non_finite_centres = [&](std::size_t y, const T* cv, const T* full_radius) {
@@ -701,12 +768,14 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             std::size_t reach = 0;  // the largest radius among the block's centres (from the horizontal pass)
             for (std::size_t y = block; y < block_end; ++y) reach = std::max(reach, row_reach[y]);
             const std::size_t r = reach + filter_distances_per_sweep;  // margin for the last group
-            first_row = block > r ? block - r : 0;
-            const std::size_t last_row = std::min(h, block_end + r);
-            nan_row = last_row - first_row;
-            rows.resize(nan_row + 1, w);
-            rows.fill(nan_row, 0, w);
-            for (std::size_t y = first_row; y < last_row; ++y) rows.load(y - first_row, 0, src, g, y);
+            if (!frame) {
+                first_row = block > r ? block - r : 0;
+                const std::size_t last_row = std::min(h, block_end + r);
+                nan_row = last_row - first_row;
+                rows.resize(nan_row + 1, w);
+                rows.fill(nan_row, 0, w);
+                for (std::size_t y = first_row; y < last_row; ++y) rows.load(y - first_row, 0, src, g, y);
+            }
         }
 #if AAF_SIMD_BYTES > 0
         if constexpr (!horizontal && !light_plane) {
@@ -722,21 +791,21 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 B.fit(n_rows * w, n_rows * R);
                 for (std::size_t y = block; y < block_end; ++y) {
                     const std::size_t i = y - block;
-                    const auto C = rows.at((y - first_row) * w);
+                    const auto C = rows.at(row_start(y - first_row));
                     const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
                     std::copy_n(st.full_radius.data(), w, &B.full_radius[i * w]);
                     setup_lanes<false>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, &B.radius[i * w],
                                        st.a.data(), st.wk.data(), st.sum.data(), st.wsum.data(), st.inv_two_beta2.data());
                     for (std::size_t k = 1; k < R; ++k) {
-                        B.left[i * R + k] = (k <= y ? y - k - first_row : nan_row) * w;
-                        B.right[i * R + k] = (y + k < h ? y + k - first_row : nan_row) * w;
+                        B.left[i * R + k] = row_start(k <= y ? y - k - first_row : nan_row);
+                        B.right[i * R + k] = row_start(y + k < h ? y + k - first_row : nan_row);
                     }
                 }
                 constexpr std::size_t N = simd<T>::lanes, G2 = filter_vector_groups;
                 const auto column = [&](auto groups, std::size_t x0) {
                     for (std::size_t y = block; y < block_end; ++y) {
                         const std::size_t i = y - block;
-                        image_lane_groups<decltype(groups)::value, T>(x0, (y - first_row) * w, rows, &B.left[i * R],
+                        image_lane_groups<decltype(groups)::value, T>(x0, row_start(y - first_row), rows, &B.left[i * R],
                                                                       &B.right[i * R], &B.radius[i * w], decay + y * w,
                                                                       cos_threshold, &B.sum[i * w], &B.wsum[i * w]);
                     }
@@ -746,7 +815,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 for (; x0 < w; x0 += N) column(std::integral_constant<std::size_t, 1>{}, std::min(x0, w - N));
                 for (std::size_t y = block; y < block_end; ++y) {
                     const std::size_t i = y - block;
-                    const auto C = rows.at((y - first_row) * w);
+                    const auto C = rows.at(row_start(y - first_row));
                     normalise_lanes(w, C.v, &B.radius[i * w], &B.sum[i * w], &B.wsum[i * w], st.out.data());
                     store_row(st.out.data(), dst, y);
                     fix_non_finite_centres(y, C.v, &B.full_radius[i * w]);
@@ -756,8 +825,17 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
         }
 #endif
         for (std::size_t y = block; y < block_end; ++y) {
-            if constexpr (horizontal) rows.load(0, margin, src, g, y);  // the margins keep their NaN values
-            const std::size_t centre_at = horizontal ? margin : (y - first_row) * w;  // the centres in `rows`
+            if constexpr (horizontal) {
+                if (frame) {  // buffer row y; its margins are written here, once per call
+                    rows.fill(y, 0, margin);
+                    rows.fill(y, margin + w, frame_stride);
+                    rows.load(y, margin, src, g, y);
+                } else {
+                    rows.load(0, margin, src, g, y);  // the margins keep their NaN values
+                }
+            }
+            // The centres in `rows`.
+            const std::size_t centre_at = horizontal ? (frame ? y * frame_stride : 0) + margin : row_start(y - first_row);
             const auto C = rows.at(centre_at);
             // Set up the lanes. A lane with taps has a finite centre (and position); the others get radius 0.
             const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
@@ -778,8 +856,8 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                         if constexpr (horizontal) {
                             ws.left[k] = centre_at - k, ws.right[k] = centre_at + k;
                         } else {
-                            ws.left[k] = (k <= y ? y - k - first_row : nan_row) * w;
-                            ws.right[k] = (y + k < h ? y + k - first_row : nan_row) * w;
+                            ws.left[k] = row_start(k <= y ? y - k - first_row : nan_row);
+                            ws.right[k] = row_start(y + k < h ? y + k - first_row : nan_row);
                         }
                     }
                     image_row_vector<T>(w, centre_at, rows, ws.left.data(), ws.right.data(), st.radius.data(), m1,
@@ -800,8 +878,8 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 using cursor = typename tap_rows<T, G, Space>::cursor;
                 const auto side = [&](std::size_t k, bool plus) -> cursor {
                     if constexpr (horizontal) return rows.at(plus ? centre_at + x0 + k : centre_at + x0 - k);
-                    if (plus) return rows.at((y + k < h ? y + k - first_row : nan_row) * w + x0);
-                    return rows.at((k <= y ? y - k - first_row : nan_row) * w + x0);
+                    if (plus) return rows.at(row_start(y + k < h ? y + k - first_row : nan_row) + x0);
+                    return rows.at(row_start(k <= y ? y - k - first_row : nan_row) + x0);
                 };
                 if constexpr (light_plane) {
                     for (std::size_t k = 1; k <= steps; ++k) {
@@ -826,6 +904,8 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             normalise_lanes(w, C.v, st.radius.data(), st.sum.data(), st.wsum.data(), st.out.data());
             store_row(st.out.data(), dst, y);
             fix_non_finite_centres(y, C.v, st.full_radius.data());
+            if constexpr (horizontal && !light_plane)
+                if (frame) frame_row_to_results(rows, centre_at, const_image_view<T>(dst), g, y, st.out.data());
         }
     }
 }
@@ -844,6 +924,7 @@ struct filter_workspace {
     std::vector<T> decay;
     std::vector<std::size_t> row_reach;
     typename detail::workspace_pool<T>::spares_type passes;
+    detail::row_buffers<T> frame;  // image space: the frame's rows for both passes (filter_pass's `frame`)
 };
 
 namespace detail {
@@ -910,11 +991,19 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
     // Image space reads no positions: the passes get the guides without them, so that callers with and
     // without positions (render_frame's light-plane and image-space branches) share one compiled pass.
     const guides<decltype(G::normals), decltype(G::ids), no_guide> gi{g.normals, g.ids, {}};
+    row_buffers<T>* frame = nullptr;
+    if (use_image_frame_rows(w, s)) {  // sized here, before the tasks share it; row h: NaN (outside the image)
+        tap_rows<T, decltype(gi), offset_space::image> rows(workspace.frame);
+        const std::size_t stride = w + 2 * image_row_margin(s);
+        rows.resize(h + 1, stride);
+        rows.fill(h, 0, stride);
+        frame = &workspace.frame;
+    }
     exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-        pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, gi, light_normal, s, row(b), row(e), row_reach, decay, ws); });
+        pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, gi, light_normal, s, row(b), row(e), row_reach, decay, ws, frame); });
     });
     exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-        pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size, gi, light_normal, s, row(b), row(e), row_reach, decay, ws); });
+        pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size, gi, light_normal, s, row(b), row(e), row_reach, decay, ws, frame); });
     });
 }
 
