@@ -226,6 +226,7 @@ template <class T>
 struct row_buffers {
     std::vector<T> v, nx, ny, nz, px, py, pz;
     std::vector<std::uint32_t> id;
+    std::vector<T> radius;  // filter_pass's `frame` only: each pixel's kernel radius, from the horizontal pass
 };
 
 /// Structure-of-arrays copies of rows of the pass's input and of the guides it uses, `stride` elements per
@@ -246,13 +247,17 @@ struct tap_rows {
 
     explicit tap_rows(row_buffers<T>& b) noexcept : buffers(b) {}
 
-    /// Makes room for `rows` rows of `row_stride` elements; the buffers reallocate only to grow.
-    void resize(std::size_t rows, std::size_t row_stride) {
+    /// Makes room for `rows` rows of `row_stride` elements; the buffers reallocate only to grow. `aligned`:
+    /// every array starts on a 64-byte boundary (so that rows of a multiple of 64 bytes load aligned).
+    void resize(std::size_t rows, std::size_t row_stride, bool aligned = false) {
         stride = row_stride;
         const std::size_t n = rows * row_stride;
-        const auto fit = [n](auto& array) {
-            if (array.size() < n) array.resize(n);
-            return array.data();
+        const auto fit = [n, aligned](auto& array) {
+            using U = std::remove_reference_t<decltype(array[0])>;
+            const std::size_t slack = aligned ? 64 / sizeof(U) : 0;
+            if (array.size() < n + slack) array.resize(n + slack);
+            const auto misaligned = reinterpret_cast<std::uintptr_t>(array.data()) % 64;
+            return array.data() + (aligned && misaligned ? (64 - misaligned) / sizeof(U) : 0);
         };
         v = fit(buffers.v);
         if constexpr (normals) nx = fit(buffers.nx), ny = fit(buffers.ny), nz = fit(buffers.nz);
@@ -613,6 +618,34 @@ void setup_lanes(std::size_t w, const T* AAF_DETAIL_RESTRICT cv, const T* AAF_DE
     }
 }
 
+/// Image space, vector path: each lane's radius (its kernel radius if the centre is finite, else 0) and,
+/// unless `a` is null, a = 1/(2(β/d)²) — setup_lanes's numbers without the state that image_lane_groups keeps
+/// in registers (sums, weights).
+template <class T>
+void image_lanes(std::size_t w, const T* AAF_DETAIL_RESTRICT cv, const T* AAF_DETAIL_RESTRICT full_radius,
+                 const T* AAF_DETAIL_RESTRICT bw, const T* AAF_DETAIL_RESTRICT dw, T* AAF_DETAIL_RESTRICT radius,
+                 T* AAF_DETAIL_RESTRICT a) noexcept {
+    constexpr T max_finite = std::numeric_limits<T>::max();
+    std::size_t x = 0;
+#if AAF_SIMD_BYTES > 0
+    using S = simd<T>;
+    for (; x + S::lanes <= w; x += S::lanes) {
+        S::store(radius + x, S::select(S::finite(S::load(cv + x)), S::load(full_radius + x), S::splat(T(0))));
+        if (a) {
+            const typename S::vec beta_px = S::load(bw + x) / S::load(dw + x);
+            S::store(a + x, T(1) / (T(2) * beta_px * beta_px));
+        }
+    }
+#endif
+    for (; x < w; ++x) {
+        radius[x] = std::abs(cv[x]) <= max_finite ? full_radius[x] : T(0);
+        if (a) {
+            const T beta_px = bw[x] / dw[x];
+            a[x] = T(1) / (T(2) * beta_px * beta_px);
+        }
+    }
+}
+
 /// Whether a centre of the row with a kernel is non-finite (those take the scalar rule; rare).
 template <class T>
 [[nodiscard]] bool any_non_finite_centre(std::size_t w, const T* AAF_DETAIL_RESTRICT cv,
@@ -681,12 +714,25 @@ template <class T>
     return s.max_radius + filter_distances_per_sweep;
 }
 
+/// The layout of filter_pass's `frame`: row r's column 0 is element r·stride + margin, both multiples of a
+/// 64-byte line, so that the vertical pass's loads (columns in multiples of the vector width) are aligned.
+struct frame_layout {
+    std::size_t margin, stride;
+};
+template <class T>
+[[nodiscard]] frame_layout image_frame_layout(std::size_t w, const filter_settings<T>& s) noexcept {
+    constexpr std::size_t line = 64 / sizeof(T);
+    const auto round_up = [](std::size_t n) { return (n + line - 1) / line * line; };
+    const std::size_t margin = round_up(image_row_margin(s));
+    return {margin, round_up(w) + 2 * margin};
+}
+
 /// Whether the image-space passes keep the frame's structure-of-arrays copies (`frame`, see filter_pass):
 /// only for the vector path, and only while the margins cost at most as much memory as the rows.
 template <class T>
 [[nodiscard]] bool use_image_frame_rows([[maybe_unused]] std::size_t w, [[maybe_unused]] const filter_settings<T>& s) noexcept {
 #if AAF_SIMD_BYTES > 0
-    return w >= simd<T>::lanes && 2 * image_row_margin(s) <= w;
+    return w >= simd<T>::lanes && 2 * image_frame_layout(w, s).margin <= w;
 #else
     return false;
 #endif
@@ -725,10 +771,10 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
     const std::size_t margin = image_row_margin(s);  // horizontal: NaN elements left and right of the row
     std::size_t first_row = 0;                      // vertical: image row held in buffer row 0
     std::size_t nan_row = 0;  // vertical: the buffer row of NaN values standing for rows outside the image
-    // `frame`: buffer row y holds image row y from element `margin` on; filter_visibility_impl sized it.
-    const std::size_t frame_stride = w + 2 * margin;
+    // `frame`: buffer row y holds image row y from element `fl.margin` on; filter_visibility_impl sized it.
+    const frame_layout fl = image_frame_layout(w, s);
     if (frame) {
-        rows.resize(h + 1, frame_stride);  // already that size: no allocation, the same arrays in every task
+        rows.resize(h + 1, fl.stride, true);  // already that size: no allocation, the same arrays in every task
         nan_row = h;
     } else if constexpr (horizontal) {
         rows.resize(1, w + 2 * margin);
@@ -736,7 +782,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
         rows.fill(0, margin + w, w + 2 * margin);
     }
     // The element of `rows` holding column 0 of buffer row r (vertical: `frame` or the block's copies).
-    const auto row_start = [&](std::size_t r) { return frame ? r * frame_stride + margin : r * w; };
+    const auto row_start = [&](std::size_t r) { return frame ? r * fl.stride + fl.margin : r * w; };
 
     // A non-finite centre with a kernel (rare): the scalar rule, after the row's lanes are stored.
     const auto fix_non_finite_centres = [&](std::size_t y, const T* cv, const T* full_radius) {
@@ -792,10 +838,14 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 for (std::size_t y = block; y < block_end; ++y) {
                     const std::size_t i = y - block;
                     const auto C = rows.at(row_start(y - first_row));
-                    const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
-                    std::copy_n(st.full_radius.data(), w, &B.full_radius[i * w]);
-                    setup_lanes<false>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, &B.radius[i * w],
-                                       st.a.data(), st.wk.data(), st.sum.data(), st.wsum.data(), st.inv_two_beta2.data());
+                    if (frame) {  // the horizontal pass's radii
+                        image_lanes<T>(w, C.v, &frame->radius[y * w], nullptr, nullptr, &B.radius[i * w], nullptr);
+                    } else {
+                        const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
+                        std::copy_n(st.full_radius.data(), w, &B.full_radius[i * w]);
+                        setup_lanes<false>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, &B.radius[i * w],
+                                           st.a.data(), st.wk.data(), st.sum.data(), st.wsum.data(), st.inv_two_beta2.data());
+                    }
                     for (std::size_t k = 1; k < R; ++k) {
                         B.left[i * R + k] = row_start(k <= y ? y - k - first_row : nan_row);
                         B.right[i * R + k] = row_start(y + k < h ? y + k - first_row : nan_row);
@@ -816,9 +866,11 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 for (std::size_t y = block; y < block_end; ++y) {
                     const std::size_t i = y - block;
                     const auto C = rows.at(row_start(y - first_row));
-                    normalise_lanes(w, C.v, &B.radius[i * w], &B.sum[i * w], &B.wsum[i * w], st.out.data());
-                    store_row(st.out.data(), dst, y);
-                    fix_non_finite_centres(y, C.v, &B.full_radius[i * w]);
+                    // Straight into a packed destination row, else through st.out.
+                    T* out = dst.packed_rows() ? &dst(0, y) : st.out.data();
+                    normalise_lanes(w, C.v, &B.radius[i * w], &B.sum[i * w], &B.wsum[i * w], out);
+                    if (out == st.out.data()) store_row(out, dst, y);
+                    fix_non_finite_centres(y, C.v, frame ? &frame->radius[y * w] : &B.full_radius[i * w]);
                 }
                 continue;
             }
@@ -827,21 +879,26 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
         for (std::size_t y = block; y < block_end; ++y) {
             if constexpr (horizontal) {
                 if (frame) {  // buffer row y; its margins are written here, once per call
-                    rows.fill(y, 0, margin);
-                    rows.fill(y, margin + w, frame_stride);
-                    rows.load(y, margin, src, g, y);
+                    rows.fill(y, 0, fl.margin);
+                    rows.fill(y, fl.margin + w, fl.stride);
+                    rows.load(y, fl.margin, src, g, y);
                 } else {
                     rows.load(0, margin, src, g, y);  // the margins keep their NaN values
                 }
             }
             // The centres in `rows`.
-            const std::size_t centre_at = horizontal ? (frame ? y * frame_stride : 0) + margin : row_start(y - first_row);
+            const std::size_t centre_at = horizontal ? (frame ? row_start(y) : margin) : row_start(y - first_row);
             const auto C = rows.at(centre_at);
             // Set up the lanes. A lane with taps has a finite centre (and position); the others get radius 0.
             const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
             if constexpr (horizontal) row_reach[y] = largest_radius(st.full_radius.data(), w);
-            setup_lanes<light_plane>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, st.radius.data(), st.a.data(), st.wk.data(), st.sum.data(),
-                                     st.wsum.data(), st.inv_two_beta2.data());
+            if (horizontal && frame) {  // image space, vectors: the vertical pass reads these radii
+                std::copy_n(st.full_radius.data(), w, &frame->radius[y * w]);
+                image_lanes<T>(w, C.v, st.full_radius.data(), bw, dw, st.radius.data(), st.a.data());
+            } else {
+                setup_lanes<light_plane>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, st.radius.data(), st.a.data(),
+                                         st.wk.data(), st.sum.data(), st.wsum.data(), st.inv_two_beta2.data());
+            }
             bool vector_done = false;
             if constexpr (!light_plane) {
                 // w_k = exp(-k² a) by the recurrence w_k = w_{k-1}·m_k, m_k = exp(-(2k-1)a), q = exp(-2a).
@@ -901,8 +958,9 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                     }
                 }
             }
-            normalise_lanes(w, C.v, st.radius.data(), st.sum.data(), st.wsum.data(), st.out.data());
-            store_row(st.out.data(), dst, y);
+            T* out = dst.packed_rows() ? &dst(0, y) : st.out.data();  // straight into a packed destination row
+            normalise_lanes(w, C.v, st.radius.data(), st.sum.data(), st.wsum.data(), out);
+            if (out == st.out.data()) store_row(out, dst, y);
             fix_non_finite_centres(y, C.v, st.full_radius.data());
             if constexpr (horizontal && !light_plane)
                 if (frame) frame_row_to_results(rows, centre_at, const_image_view<T>(dst), g, y, st.out.data());
@@ -994,9 +1052,10 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
     row_buffers<T>* frame = nullptr;
     if (use_image_frame_rows(w, s)) {  // sized here, before the tasks share it; row h: NaN (outside the image)
         tap_rows<T, decltype(gi), offset_space::image> rows(workspace.frame);
-        const std::size_t stride = w + 2 * image_row_margin(s);
-        rows.resize(h + 1, stride);
+        const std::size_t stride = image_frame_layout(w, s).stride;
+        rows.resize(h + 1, stride, true);
         rows.fill(h, 0, stride);
+        if (workspace.frame.radius.size() < w * h) workspace.frame.radius.resize(w * h);
         frame = &workspace.frame;
     }
     exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
