@@ -975,8 +975,11 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
 /// Working memory of filter_visibility, kept between calls so that a frame loop allocates nothing per
 /// call: each pixel's Gaussian decay (image space, one T per pixel), each row's reach, and one set of lane
 /// state and row copies per concurrent task (about 20–40 bytes per copied pixel for 64 rows and the rows
-/// within reach). It grows to the largest frame and task count it has served and is independent of the
-/// guides and offset space. Not thread-safe: one call at a time per workspace. Its contents are internal.
+/// within reach). In image space on the vector path (width ≥ one vector, max_radius + 2 ≤ about half the
+/// width) the rows are copied once per frame instead: the values, radii and used guides of every pixel
+/// (2 T, + 3 T with normals, + 4 bytes with IDs per pixel; 24 bytes in float with both, on rows padded
+/// by 2·32 elements). It grows to the largest frame and task count it has served and is independent of
+/// the guides and offset space. Not thread-safe: one call at a time per workspace. Its contents are internal.
 template <class T>
 struct filter_workspace {
     std::vector<T> decay;
@@ -1096,8 +1099,9 @@ void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
 }
 
 /// The same with working memory allocated for this call and freed on return (no global or thread-local
-/// state): in image space one T per pixel, and per concurrent task the lane state and row copies of a
-/// block of 64 rows. Frame loops pass a filter_workspace instead.
+/// state): in image space one T per pixel (and the frame's row copies, see filter_workspace), and per
+/// concurrent task the lane state and row copies of a block of 64 rows. Frame loops pass a
+/// filter_workspace instead.
 template <class T, class G = guides<>, class Exec = sequential_executor>
     requires detail::is_guides<G>::value
 void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
