@@ -237,6 +237,7 @@ template <class T>
 struct row_buffers {
     std::vector<T> v, nx, ny, nz, px, py, pz;
     std::vector<std::uint32_t> id;
+    std::vector<T> radius;  // filter_pass's `frame` only: each pixel's kernel radius, from the horizontal pass
 };
 
 /// Structure-of-arrays copies of rows of the pass's input and of the guides it uses, `stride` elements per
@@ -257,13 +258,17 @@ struct tap_rows {
 
     explicit tap_rows(row_buffers<T>& b) noexcept : buffers(b) {}
 
-    /// Makes room for `rows` rows of `row_stride` elements; the buffers reallocate only to grow.
-    void resize(std::size_t rows, std::size_t row_stride) {
+    /// Makes room for `rows` rows of `row_stride` elements; the buffers reallocate only to grow. `aligned`:
+    /// every array starts on a 64-byte boundary (so that rows of a multiple of 64 bytes load aligned).
+    void resize(std::size_t rows, std::size_t row_stride, bool aligned = false) {
         stride = row_stride;
         const std::size_t n = rows * row_stride;
-        const auto fit = [n](auto& array) {
-            if (array.size() < n) array.resize(n);
-            return array.data();
+        const auto fit = [n, aligned](auto& array) {
+            using U = std::remove_reference_t<decltype(array[0])>;
+            const std::size_t slack = aligned ? 64 / sizeof(U) : 0;
+            if (array.size() < n + slack) array.resize(n + slack);
+            const auto misaligned = reinterpret_cast<std::uintptr_t>(array.data()) % 64;
+            return array.data() + (aligned && misaligned ? (64 - misaligned) / sizeof(U) : 0);
         };
         v = fit(buffers.v);
         if constexpr (normals) nx = fit(buffers.nx), ny = fit(buffers.ny), nz = fit(buffers.nz);
@@ -721,6 +726,34 @@ void setup_lanes(std::size_t w, const T* AAF_DETAIL_RESTRICT cv, const T* AAF_DE
     }
 }
 
+/// Image space, vector path: each lane's radius (its kernel radius if the centre is finite, else 0) and,
+/// unless `a` is null, a = 1/(2(β/d)²) — setup_lanes's numbers without the state that image_lane_groups keeps
+/// in registers (sums, weights).
+template <class T>
+void image_lanes(std::size_t w, const T* AAF_DETAIL_RESTRICT cv, const T* AAF_DETAIL_RESTRICT full_radius,
+                 const T* AAF_DETAIL_RESTRICT bw, const T* AAF_DETAIL_RESTRICT dw, T* AAF_DETAIL_RESTRICT radius,
+                 T* AAF_DETAIL_RESTRICT a) noexcept {
+    constexpr T max_finite = std::numeric_limits<T>::max();
+    std::size_t x = 0;
+#if AAF_SIMD_BYTES > 0
+    using S = simd<T>;
+    for (; x + S::lanes <= w; x += S::lanes) {
+        S::store(radius + x, S::select(S::finite(S::load(cv + x)), S::load(full_radius + x), S::splat(T(0))));
+        if (a) {
+            const typename S::vec beta_px = S::load(bw + x) / S::load(dw + x);
+            S::store(a + x, T(1) / (T(2) * beta_px * beta_px));
+        }
+    }
+#endif
+    for (; x < w; ++x) {
+        radius[x] = std::abs(cv[x]) <= max_finite ? full_radius[x] : T(0);
+        if (a) {
+            const T beta_px = bw[x] / dw[x];
+            a[x] = T(1) / (T(2) * beta_px * beta_px);
+        }
+    }
+}
+
 /// Whether a centre of the row with a kernel is non-finite (those take the scalar rule; rare).
 template <class T>
 [[nodiscard]] bool any_non_finite_centre(std::size_t w, const T* AAF_DETAIL_RESTRICT cv,
@@ -746,6 +779,73 @@ void normalise_lanes(std::size_t w, const T* AAF_DETAIL_RESTRICT cv, const T* AA
     for (std::size_t x = 0; x < w; ++x) out[x] = ((radius[x] > T(0)) & (wsum[x] > T(0))) ? sum[x] / wsum[x] : cv[x];
 }
 
+/// After the horizontal pass filtered row `y` (whose copy in `rows` starts at element `at`): the copy's
+/// values become the pass's results (`dst`'s row, for the vertical pass), and with normals, a result that is
+/// not finite gets a NaN normal x (so that the normal test alone rejects it, as tap_rows::load does) while a
+/// finite result whose input was not finite gets its normal back. `scratch`: w elements.
+template <class T, class Rows, class G>
+void frame_row_to_results(const Rows& rows, std::size_t at, const_image_view<T> dst, const G& g, std::size_t y,
+                          T* scratch) noexcept {
+    const std::size_t w = dst.width();
+    const T* AAF_DETAIL_RESTRICT out = row_of(dst, y, scratch);
+    T* AAF_DETAIL_RESTRICT v = &rows.v[at];
+    if constexpr (Rows::normals) {
+        constexpr T max_finite = std::numeric_limits<T>::max(), nan = std::numeric_limits<T>::quiet_NaN();
+        T* AAF_DETAIL_RESTRICT n = &rows.nx[at];
+        bool restore = false;  // a finite result of a non-finite input (rare)
+        std::size_t x = 0;
+#if AAF_SIMD_BYTES > 0
+        using S = simd<T>;
+        typename S::mask m{};
+        for (; x + S::lanes <= w; x += S::lanes) {
+            const typename S::mask in = S::finite(S::load(v + x)), res = S::finite(S::load(out + x));
+            m |= res & ~in;
+            S::store(n + x, S::select(res, S::load(n + x), S::splat(nan)));
+        }
+        restore = S::any(m);
+#endif
+        for (; x < w; ++x) {
+            const bool in = std::abs(v[x]) <= max_finite, res = std::abs(out[x]) <= max_finite;
+            restore = restore | (res & !in);
+            n[x] = res ? n[x] : nan;
+        }
+        if (restore)
+            for (std::size_t i = 0; i < w; ++i)
+                if (!(std::abs(v[i]) <= max_finite) && std::abs(out[i]) <= max_finite) n[i] = g.normals(i, y).x;
+    }
+    std::copy_n(out, w, v);
+}
+
+/// Elements of NaN values left and right of each row that the horizontal image-space pass reads.
+template <class T>
+[[nodiscard]] std::size_t image_row_margin(const filter_settings<T>& s) noexcept {
+    return s.max_radius + filter_distances_per_sweep;
+}
+
+/// The layout of filter_pass's `frame`: row r's column 0 is element r·stride + margin, both multiples of a
+/// 64-byte line, so that the vertical pass's loads (columns in multiples of the vector width) are aligned.
+struct frame_layout {
+    std::size_t margin, stride;
+};
+template <class T>
+[[nodiscard]] frame_layout image_frame_layout(std::size_t w, const filter_settings<T>& s) noexcept {
+    constexpr std::size_t line = 64 / sizeof(T);
+    const auto round_up = [](std::size_t n) { return (n + line - 1) / line * line; };
+    const std::size_t margin = round_up(image_row_margin(s));
+    return {margin, round_up(w) + 2 * margin};
+}
+
+/// Whether the image-space passes keep the frame's structure-of-arrays copies (`frame`, see filter_pass):
+/// only for the vector path, and only while the margins cost at most as much memory as the rows.
+template <class T>
+[[nodiscard]] bool use_image_frame_rows([[maybe_unused]] std::size_t w, [[maybe_unused]] const filter_settings<T>& s) noexcept {
+#if AAF_SIMD_BYTES > 0
+    return w >= simd<T>::lanes && 2 * image_frame_layout(w, s).margin <= w;
+#else
+    return false;
+#endif
+}
+
 /// One 1-D pass over centre rows [y_begin, y_end). For each pixel: the Gaussian of the *centre's* width
 /// over the neighbours along `Dir`, skipping neighbours that are non-finite or rejected by a guide,
 /// normalised by the weight sum. A centre with β ≤ 0 (or NaN) is copied; a centre whose neighbours are all
@@ -757,27 +857,40 @@ void normalise_lanes(std::size_t w, const T* AAF_DETAIL_RESTRICT cv, const T* AA
 /// `row_reach[y]` is each row's largest kernel radius: the horizontal pass writes it, the vertical reads it.
 /// `decay` (image space, w·h elements): each pixel's m_1 = exp(−a) (0 without a kernel); the horizontal
 /// pass writes it, the vertical reads it, so each pixel's std::exp runs once, not once per pass.
+/// `frame` (image space, use_image_frame_rows; else null): the structure-of-arrays copies of the whole
+/// frame, h + 1 rows of w + 2·margin elements (row h: NaN, for rows outside the image). The horizontal pass
+/// copies each row there once (instead of into its own row buffer) and, once the row is filtered, replaces
+/// its values by the pass's results and gives the normals of non-finite results a NaN x; the vertical pass
+/// reads those rows in place. Without it the vertical pass copies the rows within reach of each block of
+/// rows, ~1.8 times every row for β up to 10 px, which was ~30 % of the filter's time (issue 14).
 template <pass_direction Dir, offset_space Space, class T, class G>
 void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T> beta, const_image_view<T> pixel_size,
                  const G& g, const glm::vec<3, T>& light_normal, const filter_settings<T>& s, std::size_t y_begin,
-                 std::size_t y_end, std::size_t* row_reach, T* decay, pass_workspace<T>& ws) {
+                 std::size_t y_end, std::size_t* row_reach, T* decay, pass_workspace<T>& ws,
+                 row_buffers<T>* frame = nullptr) {
     constexpr bool horizontal = Dir == pass_direction::horizontal;
     constexpr bool light_plane = Space != offset_space::image;  // world offsets: light or tangent plane
     const std::size_t w = src.width(), h = src.height();
     const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
 
     lane_state<T>& st = ws.st;
-    tap_rows<T, G, Space> rows(ws.rows);
+    tap_rows<T, G, Space> rows(frame ? *frame : ws.rows);
     std::vector<unsigned char>&lok = ws.lok, &rok = ws.rok;  // light plane: the lanes' accepted taps
-    const std::size_t margin =
-        s.max_radius + filter_distances_per_sweep;  // horizontal: NaN elements left and right of the row
+    const std::size_t margin = image_row_margin(s);  // horizontal: NaN elements left and right of the row
     std::size_t first_row = 0;                      // vertical: image row held in buffer row 0
     std::size_t nan_row = 0;  // vertical: the buffer row of NaN values standing for rows outside the image
-    if constexpr (horizontal) {
+    // `frame`: buffer row y holds image row y from element `fl.margin` on; filter_visibility_impl sized it.
+    const frame_layout fl = image_frame_layout(w, s);
+    if (frame) {
+        rows.resize(h + 1, fl.stride, true);  // already that size: no allocation, the same arrays in every task
+        nan_row = h;
+    } else if constexpr (horizontal) {
         rows.resize(1, w + 2 * margin);
         rows.fill(0, 0, margin);  // `load` writes only [margin, margin + w)
         rows.fill(0, margin + w, w + 2 * margin);
     }
+    // The element of `rows` holding column 0 of buffer row r (vertical: `frame` or the block's copies).
+    const auto row_start = [&](std::size_t r) { return frame ? r * fl.stride + fl.margin : r * w; };
 
     // A non-finite centre with a kernel (rare): the scalar rule, after the row's lanes are stored.
     const auto fix_non_finite_centres = [&](std::size_t y, const T* cv, const T* full_radius) {
@@ -809,12 +922,14 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             std::size_t reach = 0;  // the largest radius among the block's centres (from the horizontal pass)
             for (std::size_t y = block; y < block_end; ++y) reach = std::max(reach, row_reach[y]);
             const std::size_t r = reach + filter_distances_per_sweep;  // margin for the last group
-            first_row = block > r ? block - r : 0;
-            const std::size_t last_row = std::min(h, block_end + r);
-            nan_row = last_row - first_row;
-            rows.resize(nan_row + 1, w);
-            rows.fill(nan_row, 0, w);
-            for (std::size_t y = first_row; y < last_row; ++y) rows.load(y - first_row, 0, src, g, y);
+            if (!frame) {
+                first_row = block > r ? block - r : 0;
+                const std::size_t last_row = std::min(h, block_end + r);
+                nan_row = last_row - first_row;
+                rows.resize(nan_row + 1, w);
+                rows.fill(nan_row, 0, w);
+                for (std::size_t y = first_row; y < last_row; ++y) rows.load(y - first_row, 0, src, g, y);
+            }
         }
 #if AAF_SIMD_BYTES > 0
         if constexpr (!horizontal && !light_plane) {
@@ -830,21 +945,25 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 B.fit(n_rows * w, n_rows * R);
                 for (std::size_t y = block; y < block_end; ++y) {
                     const std::size_t i = y - block;
-                    const auto C = rows.at((y - first_row) * w);
-                    const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
-                    std::copy_n(st.full_radius.data(), w, &B.full_radius[i * w]);
-                    setup_lanes<false>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, &B.radius[i * w],
-                                       st.a.data(), st.wk.data(), st.sum.data(), st.wsum.data(), st.inv_two_beta2.data());
+                    const auto C = rows.at(row_start(y - first_row));
+                    if (frame) {  // the horizontal pass's radii
+                        image_lanes<T>(w, C.v, &frame->radius[y * w], nullptr, nullptr, &B.radius[i * w], nullptr);
+                    } else {
+                        const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
+                        std::copy_n(st.full_radius.data(), w, &B.full_radius[i * w]);
+                        setup_lanes<false>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, &B.radius[i * w],
+                                           st.a.data(), st.wk.data(), st.sum.data(), st.wsum.data(), st.inv_two_beta2.data());
+                    }
                     for (std::size_t k = 1; k < R; ++k) {
-                        B.left[i * R + k] = (k <= y ? y - k - first_row : nan_row) * w;
-                        B.right[i * R + k] = (y + k < h ? y + k - first_row : nan_row) * w;
+                        B.left[i * R + k] = row_start(k <= y ? y - k - first_row : nan_row);
+                        B.right[i * R + k] = row_start(y + k < h ? y + k - first_row : nan_row);
                     }
                 }
                 constexpr std::size_t N = simd<T>::lanes, G2 = filter_vector_groups;
                 const auto column = [&](auto groups, std::size_t x0) {
                     for (std::size_t y = block; y < block_end; ++y) {
                         const std::size_t i = y - block;
-                        image_lane_groups<decltype(groups)::value, T>(x0, (y - first_row) * w, rows, &B.left[i * R],
+                        image_lane_groups<decltype(groups)::value, T>(x0, row_start(y - first_row), rows, &B.left[i * R],
                                                                       &B.right[i * R], &B.radius[i * w], decay + y * w,
                                                                       cos_threshold, &B.sum[i * w], &B.wsum[i * w]);
                     }
@@ -854,10 +973,12 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 for (; x0 < w; x0 += N) column(std::integral_constant<std::size_t, 1>{}, std::min(x0, w - N));
                 for (std::size_t y = block; y < block_end; ++y) {
                     const std::size_t i = y - block;
-                    const auto C = rows.at((y - first_row) * w);
-                    normalise_lanes(w, C.v, &B.radius[i * w], &B.sum[i * w], &B.wsum[i * w], st.out.data());
-                    store_row(st.out.data(), dst, y);
-                    fix_non_finite_centres(y, C.v, &B.full_radius[i * w]);
+                    const auto C = rows.at(row_start(y - first_row));
+                    // Straight into a packed destination row, else through st.out.
+                    T* out = dst.packed_rows() ? &dst(0, y) : st.out.data();
+                    normalise_lanes(w, C.v, &B.radius[i * w], &B.sum[i * w], &B.wsum[i * w], out);
+                    if (out == st.out.data()) store_row(out, dst, y);
+                    fix_non_finite_centres(y, C.v, frame ? &frame->radius[y * w] : &B.full_radius[i * w]);
                 }
                 continue;
             }
@@ -912,14 +1033,28 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
         }
 #endif
         for (std::size_t y = block; y < block_end; ++y) {
-            if constexpr (horizontal) rows.load(0, margin, src, g, y);  // the margins keep their NaN values
-            const std::size_t centre_at = horizontal ? margin : (y - first_row) * w;  // the centres in `rows`
+            if constexpr (horizontal) {
+                if (frame) {  // buffer row y; its margins are written here, once per call
+                    rows.fill(y, 0, fl.margin);
+                    rows.fill(y, fl.margin + w, fl.stride);
+                    rows.load(y, fl.margin, src, g, y);
+                } else {
+                    rows.load(0, margin, src, g, y);  // the margins keep their NaN values
+                }
+            }
+            // The centres in `rows`.
+            const std::size_t centre_at = horizontal ? (frame ? row_start(y) : margin) : row_start(y - first_row);
             const auto C = rows.at(centre_at);
             // Set up the lanes. A lane with taps has a finite centre (and position); the others get radius 0.
             const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
             if constexpr (horizontal) row_reach[y] = largest_radius(st.full_radius.data(), w);
-            setup_lanes<light_plane>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, st.radius.data(), st.a.data(), st.wk.data(), st.sum.data(),
-                                     st.wsum.data(), st.inv_two_beta2.data());
+            if (horizontal && frame) {  // image space, vectors: the vertical pass reads these radii
+                std::copy_n(st.full_radius.data(), w, &frame->radius[y * w]);
+                image_lanes<T>(w, C.v, st.full_radius.data(), bw, dw, st.radius.data(), st.a.data());
+            } else {
+                setup_lanes<light_plane>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, st.radius.data(), st.a.data(),
+                                         st.wk.data(), st.sum.data(), st.wsum.data(), st.inv_two_beta2.data());
+            }
             bool vector_done = false;
             if constexpr (!light_plane) {
                 // w_k = exp(-k² a) by the recurrence w_k = w_{k-1}·m_k, m_k = exp(-(2k-1)a), q = exp(-2a).
@@ -934,8 +1069,8 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                         if constexpr (horizontal) {
                             ws.left[k] = centre_at - k, ws.right[k] = centre_at + k;
                         } else {
-                            ws.left[k] = (k <= y ? y - k - first_row : nan_row) * w;
-                            ws.right[k] = (y + k < h ? y + k - first_row : nan_row) * w;
+                            ws.left[k] = row_start(k <= y ? y - k - first_row : nan_row);
+                            ws.right[k] = row_start(y + k < h ? y + k - first_row : nan_row);
                         }
                     }
                     image_row_vector<T>(w, centre_at, rows, ws.left.data(), ws.right.data(), st.radius.data(), m1,
@@ -976,8 +1111,8 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 using cursor = typename tap_rows<T, G, Space>::cursor;
                 const auto side = [&](std::size_t k, bool plus) -> cursor {
                     if constexpr (horizontal) return rows.at(plus ? centre_at + x0 + k : centre_at + x0 - k);
-                    if (plus) return rows.at((y + k < h ? y + k - first_row : nan_row) * w + x0);
-                    return rows.at((k <= y ? y - k - first_row : nan_row) * w + x0);
+                    if (plus) return rows.at(row_start(y + k < h ? y + k - first_row : nan_row) + x0);
+                    return rows.at(row_start(k <= y ? y - k - first_row : nan_row) + x0);
                 };
                 if constexpr (light_plane) {
                     for (std::size_t k = 1; k <= steps; ++k) {
@@ -999,9 +1134,12 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                     }
                 }
             }
-            normalise_lanes(w, C.v, st.radius.data(), st.sum.data(), st.wsum.data(), st.out.data());
-            store_row(st.out.data(), dst, y);
+            T* out = dst.packed_rows() ? &dst(0, y) : st.out.data();  // straight into a packed destination row
+            normalise_lanes(w, C.v, st.radius.data(), st.sum.data(), st.wsum.data(), out);
+            if (out == st.out.data()) store_row(out, dst, y);
             fix_non_finite_centres(y, C.v, st.full_radius.data());
+            if constexpr (horizontal && !light_plane)
+                if (frame) frame_row_to_results(rows, centre_at, const_image_view<T>(dst), g, y, st.out.data());
         }
     }
 }
@@ -1013,13 +1151,17 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
 /// Working memory of filter_visibility, kept between calls so that a frame loop allocates nothing per
 /// call: each pixel's Gaussian decay (image space, one T per pixel), each row's reach, and one set of lane
 /// state and row copies per concurrent task (about 20–40 bytes per copied pixel for 64 rows and the rows
-/// within reach). It grows to the largest frame and task count it has served and is independent of the
-/// guides and offset space. Not thread-safe: one call at a time per workspace. Its contents are internal.
+/// within reach). In image space on the vector path (width ≥ one vector, max_radius + 2 ≤ about half the
+/// width) the rows are copied once per frame instead: the values, radii and used guides of every pixel
+/// (2 T, + 3 T with normals, + 4 bytes with IDs per pixel; 24 bytes in float with both, on rows padded
+/// by 2·32 elements). It grows to the largest frame and task count it has served and is independent of
+/// the guides and offset space. Not thread-safe: one call at a time per workspace. Its contents are internal.
 template <class T>
 struct filter_workspace {
     std::vector<T> decay;
     std::vector<std::size_t> row_reach;
     typename detail::workspace_pool<T>::spares_type passes;
+    detail::row_buffers<T> frame;  // image space: the frame's rows for both passes (filter_pass's `frame`)
 };
 
 namespace detail {
@@ -1086,11 +1228,20 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
     // Image space reads no positions: the passes get the guides without them, so that callers with and
     // without positions (render_frame's light-plane and image-space branches) share one compiled pass.
     const guides<decltype(G::normals), decltype(G::ids), no_guide> gi{g.normals, g.ids, {}};
+    row_buffers<T>* frame = nullptr;
+    if (use_image_frame_rows(w, s)) {  // sized here, before the tasks share it; row h: NaN (outside the image)
+        tap_rows<T, decltype(gi), offset_space::image> rows(workspace.frame);
+        const std::size_t stride = image_frame_layout(w, s).stride;
+        rows.resize(h + 1, stride, true);
+        rows.fill(h, 0, stride);
+        if (workspace.frame.radius.size() < w * h) workspace.frame.radius.resize(w * h);
+        frame = &workspace.frame;
+    }
     exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-        pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, gi, light_normal, s, row(b), row(e), row_reach, decay, ws); });
+        pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, gi, light_normal, s, row(b), row(e), row_reach, decay, ws, frame); });
     });
     exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-        pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size, gi, light_normal, s, row(b), row(e), row_reach, decay, ws); });
+        pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size, gi, light_normal, s, row(b), row(e), row_reach, decay, ws, frame); });
     });
 }
 
@@ -1124,8 +1275,9 @@ void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
 }
 
 /// The same with working memory allocated for this call and freed on return (no global or thread-local
-/// state): in image space one T per pixel, and per concurrent task the lane state and row copies of a
-/// block of 64 rows. Frame loops pass a filter_workspace instead.
+/// state): in image space one T per pixel (and the frame's row copies, see filter_workspace), and per
+/// concurrent task the lane state and row copies of a block of 64 rows. Frame loops pass a
+/// filter_workspace instead.
 template <class T, class G = guides<>, class Exec = sequential_executor>
     requires detail::is_guides<G>::value
 void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
