@@ -517,7 +517,7 @@ TEMPLATE_TEST_CASE("gather_occlusion's vector loops give the bits of the one-sam
                                 continue;
                             }
                             const aaf::shadow_segment<T> seg{origin, to * (T(1) / len), len};
-                            expected.add_sample(wgt, d1, len, aaf::trace_one<T>(direction_bit_tracer<T>{}, seg));
+                            expected.add_sample(wgt, d1, len, aaf::detail::trace_one<T>(direction_bit_tracer<T>{}, seg));
                         }
                         expected.samples += skipped;
                         INFO("two_sided " << two_sided << " weighting " << static_cast<int>(weighting) << " pattern "
