@@ -6,9 +6,11 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <functional>
+#include <random>
 #include <limits>
 #include <string>
 #include <vector>
@@ -284,4 +286,32 @@ void check_vector_path_equals_scalar_rule(std::uint64_t seed) {
 TEMPLATE_TEST_CASE("spread_slopes: the vector passes equal the scalar rule bit for bit (NaN, ±Inf, −0, IDs, borders)",
                    "[spread]", float, double) {
     for (std::uint64_t seed = 1; seed <= 40; ++seed) check_vector_path_equals_scalar_rule<TestType>(seed);
+}
+
+TEST_CASE("spread_slopes: rows padded by a part of an element spread as packed rows do", "[spread]") {
+    // A view may pad its rows by any byte count its alignment allows: slope_pair<double> is 16 bytes, its rows
+    // here start 8 bytes apart from a whole element. The vertical vector pass counts its taps' steps in
+    // elements, so it must leave such views to the scalar rule (fuzz_filter found it reading between rows).
+    using P = aaf::slope_pair<double>;
+    const std::size_t w = 37, h = 9, stride = w * sizeof(P) + 8;
+    std::vector<double> storage((stride * h) / sizeof(double) + 2), scratch_storage(storage.size());
+    aaf::image_view<P> padded(reinterpret_cast<P*>(storage.data()), w, h, 0, stride);
+    // The scratch is what the vertical pass reads with its steps: padded too.
+    aaf::image_view<P> scratch_padded(reinterpret_cast<P*>(scratch_storage.data()), w, h, 0, stride);
+    aaf::image<P> packed(w, h), scratch_packed(w, h);
+    std::mt19937 rng(5);
+    for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x) {
+            const bool occluded = rng() % 7 == 0;
+            const P p = occluded ? P{double(rng() % 100) * 0.1, double(rng() % 50) * 0.01} : P{};
+            packed(x, y) = p;
+            padded(x, y) = p;
+        }
+    aaf::spread_slopes<double>(packed.view(), scratch_packed.view(), 3);
+    aaf::spread_slopes<double>(padded, scratch_padded, 3);
+    for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x) {
+            INFO("pixel " << x << ", " << y);
+            REQUIRE(std::memcmp(&packed(x, y), &padded(x, y), sizeof(P)) == 0);
+        }
 }

@@ -1434,8 +1434,14 @@ void spread_pass(const_image_view<slope_pair<T>> src, image_view<slope_pair<T>> 
 #if AAF_SIMD_BYTES > 0
         using L = slope_lanes<T>;
         constexpr std::size_t N = L::N, G4 = spread_vector_groups;
-        bool packed = src.packed_rows() && dst.packed_rows() && original.packed_rows();
-        if constexpr (G::has_ids) packed = packed && g.ids.packed_rows();
+        // Packed rows, and (for the vertical taps' element steps) row strides in whole elements: a view may
+        // pad its rows by any number of bytes, which a step counted in elements cannot express.
+        const auto whole_rows = [](const auto& view) {
+            using U = std::remove_cvref_t<decltype(view(0, 0))>;
+            return view.packed_rows() && view.row_stride() % sizeof(U) == 0;
+        };
+        bool packed = whole_rows(src) && dst.packed_rows() && original.packed_rows();
+        if constexpr (G::has_ids) packed = packed && whole_rows(g.ids);
         // Horizontal: lanes [x, x + N) whose taps x − r … x + N − 1 + r are all in the row. Vertical: every
         // column; the rows within reach are the same for all lanes.
         const std::size_t v_begin = horizontal ? radius : 0;
