@@ -22,10 +22,6 @@
 #include <type_traits>
 #include <utility>
 
-#if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__)
-#include <immintrin.h>
-#endif
-
 #ifndef AAF_SIMD_BYTES
 #if defined(__GNUC__) || defined(__clang__)
 #if defined(__AVX512F__)
@@ -101,35 +97,41 @@ struct simd {
         const vec a = std::bit_cast<vec>(std::bit_cast<mask>(x) & magnitude);
         return a <= splat(std::numeric_limits<T>::max());
     }
+    /// √x per lane: the ISA's vector instruction on x86 (a loop over std::sqrt stays scalar: it may set
+    /// errno), lane by lane elsewhere. Correctly rounded either way, so the same bits as std::sqrt.
+    [[nodiscard]] static vec sqrt(vec x) noexcept {
+#if defined(__x86_64__) && AAF_SIMD_BYTES == 64 && defined(__AVX512F__) && defined(__clang__)
+        if constexpr (sizeof(T) == 8) return __builtin_ia32_sqrtpd512(x, 4);
+        else return __builtin_ia32_sqrtps512(x, 4);
+#elif defined(__x86_64__) && AAF_SIMD_BYTES == 64 && defined(__AVX512F__)
+        // The masked form with x as its own source: the unmasked intrinsics' undefined source trips GCC 12's
+        // -Wmaybe-uninitialized.
+        if constexpr (sizeof(T) == 8) return __builtin_ia32_sqrtpd512_mask(x, x, static_cast<unsigned char>(0xff), 4);
+        else return __builtin_ia32_sqrtps512_mask(x, x, static_cast<unsigned short>(0xffff), 4);
+#elif defined(__x86_64__) && AAF_SIMD_BYTES == 32 && defined(__AVX__)
+        if constexpr (sizeof(T) == 8) return __builtin_ia32_sqrtpd256(x);
+        else return __builtin_ia32_sqrtps256(x);
+#elif defined(__x86_64__) && AAF_SIMD_BYTES == 16
+        if constexpr (sizeof(T) == 8) return __builtin_ia32_sqrtpd(x);
+        else return __builtin_ia32_sqrtps(x);
+#else
+        for (std::size_t l = 0; l < lanes; ++l) x[l] = std::sqrt(x[l]);
+        return x;
+#endif
+    }
 };
 
 #endif
 
-/// x[i] = √x[i] for i < n, several lanes per instruction on x86 (SSE2, AVX, AVX-512F), one at a time
-/// elsewhere. The same correctly rounded results as std::sqrt, whose errno side effect on negative input
-/// keeps GCC from vectorising a loop that calls it (unless the user builds with -fno-math-errno). A
-/// negative or NaN input gives NaN either way (the callers drop those values).
+/// x[i] = √x[i] for i < n: whole vectors through simd<T>::sqrt, the rest one at a time. The same
+/// correctly rounded results as std::sqrt, which GCC does not vectorise while it may set errno (unless the
+/// user builds with -fno-math-errno). A negative or NaN input gives NaN either way.
 template <class T>
 void sqrt_each(T* x, std::size_t n) noexcept {
     std::size_t i = 0;
-#if (defined(__x86_64__) || defined(__i386__)) && defined(__SSE2__) && AAF_SIMD_BYTES > 0
-    if constexpr (std::is_same_v<T, float>) {
-#if defined(__AVX512F__)  // the zero-masked forms: GCC 12 warns that _mm512_sqrt_ps's undefined source is uninitialised
-        for (; i + 16 <= n; i += 16) _mm512_storeu_ps(x + i, _mm512_maskz_sqrt_ps(0xFFFF, _mm512_loadu_ps(x + i)));
-#endif
-#if defined(__AVX__)
-        for (; i + 8 <= n; i += 8) _mm256_storeu_ps(x + i, _mm256_sqrt_ps(_mm256_loadu_ps(x + i)));
-#endif
-        for (; i + 4 <= n; i += 4) _mm_storeu_ps(x + i, _mm_sqrt_ps(_mm_loadu_ps(x + i)));
-    } else if constexpr (std::is_same_v<T, double>) {
-#if defined(__AVX512F__)
-        for (; i + 8 <= n; i += 8) _mm512_storeu_pd(x + i, _mm512_maskz_sqrt_pd(0xFF, _mm512_loadu_pd(x + i)));
-#endif
-#if defined(__AVX__)
-        for (; i + 4 <= n; i += 4) _mm256_storeu_pd(x + i, _mm256_sqrt_pd(_mm256_loadu_pd(x + i)));
-#endif
-        for (; i + 2 <= n; i += 2) _mm_storeu_pd(x + i, _mm_sqrt_pd(_mm_loadu_pd(x + i)));
-    }
+#if AAF_SIMD_BYTES > 0
+    using S = simd<T>;
+    for (; i + S::lanes <= n; i += S::lanes) S::store(x + i, S::sqrt(S::load(x + i)));
 #endif
     for (; i < n; ++i) x[i] = std::sqrt(x[i]);
 }

@@ -7,7 +7,7 @@
 // Why explicit vectors and not the auto-vectoriser: without -ffast-math GCC and Clang vectorise neither the
 // sum (floating-point reassociation), nor std::exp (a libm call), nor std::sqrt (it may set errno: "control
 // flow in loop"), so a plain loop stays scalar at every -O level. Here the lanes run on simd.hpp's vectors,
-// the exponential is a polynomial (below), and the square root is the ISA's vector instruction on x86 (SSE2,
+// the exponential is a polynomial (below), and the square root is simd.hpp's (the ISA's vector instruction on x86: SSE2,
 // AVX, AVX-512; other targets take it lane by lane). Lanes whose radii are left over go through the scalar
 // dipole::profile.
 
@@ -55,25 +55,6 @@ template <class V, class I>
     return under ? zero : p * scale;
 }
 
-#if AAF_SIMD_BYTES > 0
-/// √x per lane of a double vector: the vector instruction where the target has one (a loop over
-/// __builtin_sqrt stays scalar and calls libm for errno's sake).
-[[nodiscard]] inline aaf::detail::simd<double>::vec sqrt_lanes(aaf::detail::simd<double>::vec x) noexcept {
-#if defined(__x86_64__) && AAF_SIMD_BYTES == 64 && defined(__AVX512F__) && defined(__clang__)
-    return __builtin_ia32_sqrtpd512(x, 4);
-#elif defined(__x86_64__) && AAF_SIMD_BYTES == 64 && defined(__AVX512F__)
-    return __builtin_ia32_sqrtpd512_mask(x, x, static_cast<unsigned char>(0xff), 4);
-#elif defined(__x86_64__) && AAF_SIMD_BYTES == 32 && defined(__AVX__)
-    return __builtin_ia32_sqrtpd256(x);
-#elif defined(__x86_64__) && AAF_SIMD_BYTES == 16
-    return __builtin_ia32_sqrtpd(x);
-#else
-    for (std::size_t l = 0; l < aaf::detail::simd<double>::lanes; ++l) x[l] = std::sqrt(x[l]);
-    return x;
-#endif
-}
-#endif
-
 }  // namespace detail
 
 /// Σ_i w_c[i]·R_d,c(r[i]) for the three channels c of `d` (R_d in 1/length², as dipole::profile), over `n`
@@ -106,7 +87,7 @@ template <class V, class I>
             const V rv = S::load(r + i);
             const V r2 = rv * rv;
             for (int c = 0; c < 3; ++c) {
-                const V dr = detail::sqrt_lanes(r2 + zr2[c]), dv = detail::sqrt_lanes(r2 + zv2[c]);
+                const V dr = S::sqrt(r2 + zr2[c]), dv = S::sqrt(r2 + zv2[c]);
                 const V a = (one + sig[c] * dr) * detail::exp_nonpositive<V, I>(-sig[c] * dr, zero, floor_x) / (dr * dr * dr);
                 const V b = (one + sig[c] * dv) * detail::exp_nonpositive<V, I>(-sig[c] * dv, zero, floor_x) / (dv * dv * dv);
                 acc[c] += S::load(w[c] + i) * (kr[c] * a + kv[c] * b);
