@@ -91,13 +91,19 @@ const frame_scene& get_scene() {
     return f;
 }
 
+/// The scene, or null after marking the benchmark skipped with the reason it could not be loaded.
+const frame_scene* scene_or_skip(benchmark::State& state) {
+    const frame_scene& f = get_scene();
+    if (f.error.empty()) return &f;
+    state.SkipWithError(f.error.c_str());
+    return nullptr;
+}
+
 /// Args: threads, light_plane.
 void BM_frame(benchmark::State& state) {
-    const frame_scene& f = get_scene();
-    if (!f.error.empty()) {
-        state.SkipWithError(f.error.c_str());
-        return;
-    }
+    const frame_scene* scene = scene_or_skip(state);
+    if (!scene) return;
+    const frame_scene& f = *scene;
     const std::size_t w = f.scene.width, h = f.scene.height;
     const auto gb = f.gbuffer();
     aaf::frame_settings<float> settings;
@@ -149,11 +155,9 @@ double thread_cpu_seconds() {
 /// pixel, one gathering pass (gather_occlusion, distances), 1 thread. Every form runs once per iteration,
 /// in turns; times are the calling thread's CPU time. Counters: <form>_ns = ns per traced sample.
 void BM_per_sample_cost(benchmark::State& state) {
-    const frame_scene& f = get_scene();
-    if (!f.error.empty()) {
-        state.SkipWithError(f.error.c_str());
-        return;
-    }
+    const frame_scene* scene = scene_or_skip(state);
+    if (!scene) return;
+    const frame_scene& f = *scene;
     const std::size_t w = f.scene.width, h = f.scene.height;
     const auto gb = f.gbuffer();
     aaf::image<aaf::occlusion_stats<float>> stats(w, h);
@@ -216,11 +220,9 @@ struct packet_first_hit {  // nearest_batch + occluded_batch
 /// Args: threads. Every form renders the frame once per iteration, in turns (the order reversed every other
 /// iteration); the iteration time is the sum.
 void BM_frame_tracers(benchmark::State& state) {
-    const frame_scene& f = get_scene();
-    if (!f.error.empty()) {
-        state.SkipWithError(f.error.c_str());
-        return;
-    }
+    const frame_scene* scene = scene_or_skip(state);
+    if (!scene) return;
+    const frame_scene& f = *scene;
     static const std::unique_ptr<aaf_examples::embree_tracer> embree =
         std::make_unique<aaf_examples::embree_tracer>(f.scene.vertices, f.scene.triangles);
     const aaf_examples::bvh& tree = *f.tree;
