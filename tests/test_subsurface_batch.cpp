@@ -32,6 +32,18 @@ TEST_CASE("the batch exponential matches std::exp on x <= 0", "[subsurface]") {
     CHECK(ss::detail::exp_nonpositive<double, std::int64_t>(-INFINITY, 0.0, -708.0) == 0.0);
 }
 
+TEST_CASE("the batch exponential follows std::exp into the subnormals", "[subsurface]") {
+    // Below e^-708 the result is subnormal, rounded to a step of 2^-1074: the relative error bound plus a step.
+    double worst = 0;  // in steps beyond the relative bound
+    for (double x = -700; x >= -745.2; x -= 0.0137) {
+        const double got = ss::detail::exp_nonpositive<double, std::int64_t>(x, 0.0, -745.2);
+        worst = std::max(worst, (std::abs(got - std::exp(x)) - 2e-14 * std::exp(x)) / 0x1p-1074);
+    }
+    CHECK(worst <= 1);
+    CHECK(ss::detail::exp_nonpositive<double, std::int64_t>(-744.0, 0.0, -745.2) > 0.0);
+    CHECK(ss::detail::exp_nonpositive<double, std::int64_t>(-745.3, 0.0, -745.2) == 0.0);
+}
+
 TEST_CASE("weighted_profile_sum agrees with summing dipole::profile one radius at a time", "[subsurface]") {
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -63,6 +75,30 @@ TEST_CASE("weighted_profile_sum agrees with summing dipole::profile one radius a
             }
         }
     }
+}
+
+TEST_CASE("weighted_profile_sum keeps its precision where the terms are tiny but normal", "[subsurface]") {
+    // fuzz_subsurface's finding: σ_t′ ≈ 1e-29 and radii ≈ 1e33, where R_d ≈ 1e-293. Dividing by d³ before
+    // multiplying by z made a subnormal quotient and a sum 0.15 % off the scalar one.
+    ss::dipole ch;
+    ch.alpha_prime = 0x1.feca87579467bp-1;
+    ch.sigma_tr = 0x1.03284e8765aa9p-100;
+    ch.z_r = 0x1.548704e50d9a7p+96;
+    ch.z_v = 0x1.a6dac109354dfp+127;
+    ss::rgb_dipole d;
+    d.channel[0] = d.channel[1] = d.channel[2] = ch;
+    // Enough radii for a full vector at every width, all with σd ≈ 519…551 (e^{−σd} normal, e^{−σd}/d³ not).
+    std::vector<double> r, w;
+    for (int i = 0; i < 40; ++i) {
+        r.push_back(6.5e32 + 1e30 * i);
+        w.push_back(0.5);
+    }
+    double scalar = 0;
+    for (std::size_t i = 0; i < r.size(); ++i) scalar += w[i] * ch.profile(r[i]);
+    const glm::dvec3 vec = ss::weighted_profile_sum(d, r.data(), w.data(), w.data(), w.data(), r.size());
+    INFO("scalar " << scalar << " vector " << vec[0]);
+    REQUIRE(scalar > 0x1p-1022);
+    CHECK(std::abs(vec[0] - scalar) <= 1e-13 * scalar);
 }
 
 TEST_CASE("the gather gives the same image with the vectorised and the scalar profile", "[subsurface]") {
