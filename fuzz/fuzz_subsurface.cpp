@@ -178,8 +178,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         glm::dvec3 scalar(0), subnormal_slack(0);
         for (std::size_t i = 0; i < n; ++i) {
             scalar += w[i] * d.profile(r[i]);
-            // Where e^{−σd} is subnormal (σd > 708) neither sum holds it relatively: std::exp to a step of 2^−1074,
-            // the vector exp to 1e-14·2^−1022 (45 steps) plus one. Allow 64 steps times the factor z(1 + σd)/d³
+            // Where e^{−σd} is subnormal (σd > 708) neither sum holds it relatively: std::exp and the vector exp
+            // (simd_exp.hpp) each to a step of 2^−1074 plus 2 ulp of 2^−1022. Allow 64 steps times the factor z(1 + σd)/d³
             // it is multiplied by; where e^{−σd} is normal this is ≤ 2^−46 of the term, inside the 1e-9.
             for (int c = 0; c < 3; ++c) {
                 const ss::dipole& ch = d.channel[c];

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
-// aaf::detail::exp_nonpositive (simd_exp.hpp), the light-plane filter's weight: its error against a
-// higher-precision exp, its limits, and the scalar and vector forms computing the same bits.
+// aaf::detail::exp_nonpositive (simd_exp.hpp), the light-plane filter's weight and (with its subnormal
+// range) the subsurface profile sum's exponential: its error against a higher-precision exp, its limits,
+// and the scalar and vector forms computing the same bits.
 
 #include <catch2/catch.hpp>
 
@@ -83,6 +84,41 @@ TEMPLATE_TEST_CASE("simd_exp: exp_nonpositive at its limits", "[filter][simd_exp
     CHECK(std::isnan(fast_exp(nan)));
     CHECK(fast_exp(T(1e-30)) == T(1));  // outside the domain: clamped to e^0
     CHECK(fast_exp(-std::numeric_limits<T>::denorm_min()) == T(1));
+}
+
+TEMPLATE_TEST_CASE("simd_exp: the subnormal range follows e^x until it rounds to 0", "[filter][simd_exp][subsurface]", float,
+                   double) {
+    using T = TestType;
+    using aaf::detail::exp_range;
+    const auto sub = [](T x) { return aaf::detail::exp_nonpositive_of<T, exp_range::subnormal>(x); };
+    constexpr T tiny = std::numeric_limits<T>::denorm_min(), smallest_normal = std::numeric_limits<T>::min();
+    const T lowest = sizeof(T) == 4 ? T(-104.0) : T(-745.2);
+    // Where the result is normal: the default range's bits (the same polynomial; both scalings are exact there).
+    const T flush = sizeof(T) == 4 ? T(-86.6) : T(-707.7);
+    std::size_t differ = 0;
+    for (int i = 0; i <= 20000; ++i) {
+        const T x = flush * static_cast<T>(i) / T(20000);
+        if (ulps(sub(x), fast_exp(x)) != 0) ++differ;
+    }
+    CHECK(differ == 0);
+    // Below the smallest normal result: within 2 ulp of the normal result's scale plus one subnormal step.
+    T worst = 0, worst_x = 0;
+    for (int i = 0; i <= 20000; ++i) {
+        const T x = flush + (lowest - flush) * static_cast<T>(i) / T(20000);
+        const T want = reference_exp(x);
+        const T err = std::abs(sub(x) - want) - T(2) * std::numeric_limits<T>::epsilon() * want;
+        if (err > worst) worst = err, worst_x = x;
+    }
+    INFO("worst error beyond 2 ulp: " << worst / tiny << " subnormal steps at x = " << worst_x);
+    CHECK(worst <= tiny);
+    // e^x is half the smallest subnormal at −745.13 (double) and −103.97 (float): above it, not 0.
+    CHECK(sub(sizeof(T) == 4 ? T(-103.5) : T(-744.8)) > T(0));
+    CHECK(sub(lowest) == T(0));
+    CHECK(sub(lowest * T(1.001)) == T(0));
+    CHECK(sub(-std::numeric_limits<T>::infinity()) == T(0));
+    CHECK(std::isnan(sub(std::numeric_limits<T>::quiet_NaN())));
+    CHECK(sub(T(0)) == T(1));
+    CHECK(sub(flush) >= smallest_normal);
 }
 
 #if AAF_SIMD_BYTES > 0

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: MIT
 // The vectorised profile evaluation (include/aaf/subsurface/profile_batch.hpp) against the scalar dipole::profile
-// it replaces in the gather: the exponential alone, the weighted sum over radii from 0 to far tails for real and
-// extreme materials, and the gather with and without it.
+// it replaces in the gather: the weighted sum over radii from 0 to far tails for real and extreme materials
+// (its exponential, simd_exp.hpp's subnormal range, is tested in test_simd_exp.cpp), and the gather with and
+// without it.
 
 #include <catch2/catch.hpp>
 
@@ -14,35 +15,6 @@
 #include "support/box_scene.hpp"
 
 namespace ss = aaf::subsurface;
-
-TEST_CASE("the batch exponential matches std::exp on x <= 0", "[subsurface]") {
-    std::mt19937 rng(3);
-    std::uniform_real_distribution<double> u(0.0, 1.0);
-    double worst = 0;
-    for (int i = 0; i < 100000; ++i) {
-        const double x = -std::exp(std::log(1e-12) + (std::log(707.0) - std::log(1e-12)) * u(rng));
-        const double got = ss::detail::exp_nonpositive<double, std::int64_t>(x, 0.0, -708.0);
-        worst = std::max(worst, std::abs(got - std::exp(x)) / std::exp(x));
-    }
-    INFO("worst relative error " << worst);
-    CHECK(worst < 2e-14);
-    CHECK(ss::detail::exp_nonpositive<double, std::int64_t>(0.0, 0.0, -708.0) == 1.0);
-    CHECK(ss::detail::exp_nonpositive<double, std::int64_t>(-0.0, 0.0, -708.0) == 1.0);
-    CHECK(ss::detail::exp_nonpositive<double, std::int64_t>(-709.0, 0.0, -708.0) == 0.0);
-    CHECK(ss::detail::exp_nonpositive<double, std::int64_t>(-INFINITY, 0.0, -708.0) == 0.0);
-}
-
-TEST_CASE("the batch exponential follows std::exp into the subnormals", "[subsurface]") {
-    // Below e^-708 the result is subnormal, rounded to a step of 2^-1074: the relative error bound plus a step.
-    double worst = 0;  // in steps beyond the relative bound
-    for (double x = -700; x >= -745.2; x -= 0.0137) {
-        const double got = ss::detail::exp_nonpositive<double, std::int64_t>(x, 0.0, -745.2);
-        worst = std::max(worst, (std::abs(got - std::exp(x)) - 2e-14 * std::exp(x)) / 0x1p-1074);
-    }
-    CHECK(worst <= 1);
-    CHECK(ss::detail::exp_nonpositive<double, std::int64_t>(-744.0, 0.0, -745.2) > 0.0);
-    CHECK(ss::detail::exp_nonpositive<double, std::int64_t>(-745.3, 0.0, -745.2) == 0.0);
-}
 
 TEST_CASE("weighted_profile_sum agrees with summing dipole::profile one radius at a time", "[subsurface]") {
     std::mt19937 rng(5);
