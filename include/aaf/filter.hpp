@@ -524,22 +524,33 @@ void image_row_vector(std::size_t w, std::size_t centre_at, const Rows& rows, co
 }
 #endif
 
-/// The light-plane weight of a tap, e^(−distance²/(2β²)), for a scalar or a vector of lanes: one definition
-/// (exp_nonpositive, simd_exp.hpp) so that the vector lanes and the scalar remainder compute the same bits.
-/// std::exp per tap was 8–14x the cost of the image-space filter (docs/DEVIATIONS.md: within 2 ulp of it;
-/// weights below 2.5e−38 in float are 0).
+/// The light-plane weight of a tap, e^(−d²/(2β²)) = 2^(d²·scale), evaluated as exp2_nonpositive (simd_exp.hpp):
+/// `scale` = light_plane_scale(1/(2β²)) = −log2(e)/(2β²), once per centre. std::exp per tap was 8–14x the
+/// cost of the image-space filter (docs/DEVIATIONS.md F1: within 2 ulp of it). A tap whose exponent d²·scale
+/// is NaN (a NaN position) or below exp2_lowest (a weight below 2^−125 ≈ 2.4e−38 in float, next to the
+/// centre's 1) is dropped: the vector lanes test light_plane_accepts; the scalar form returns NaN, which
+/// its callers reject as a non-finite weight.
+template <class T, class V = T>
+[[nodiscard]] V light_plane_scale(V inv_two_beta2) noexcept {
+    return inv_two_beta2 * T(-1.4426950408889634073599246810018921);  // −log2(e)/(2β²)
+}
 template <class T, class V>
-[[nodiscard]] V light_plane_weight(V exponent) noexcept {
+[[nodiscard]] V light_plane_weight(V exponent2) noexcept {
     using U = std::conditional_t<sizeof(T) == 8, std::uint64_t, std::uint32_t>;
 #if AAF_SIMD_BYTES > 0
     if constexpr (!std::is_same_v<V, T>) {
         typedef U uvec __attribute__((vector_size(sizeof(V))));
-        return exp_nonpositive<T, V, uvec>(exponent);
+        return exp2_nonpositive<T, V, uvec>(exponent2);
     } else
 #endif
     {
-        return exp_nonpositive<T, V, U>(exponent);
+        return exponent2 >= exp2_lowest<T> ? exp2_nonpositive<T, V, U>(exponent2) : std::numeric_limits<T>::quiet_NaN();
     }
+}
+/// Whether the lanes' exponents d²·scale are in exp2_nonpositive's domain (false for NaN).
+template <class T, class V>
+[[nodiscard]] auto light_plane_accepts(V exponent2) noexcept {
+    return exponent2 >= exp2_lowest<T>;
 }
 
 #if AAF_SIMD_BYTES > 0
@@ -561,13 +572,13 @@ void light_plane_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& 
     constexpr std::size_t N = S::lanes;
     constexpr bool normals = Rows::normals, ids = Rows::ids;
     const T* AAF_DETAIL_RESTRICT v = rows.v;
-    vec s[Groups], ws[Groups], r[Groups], a[Groups], cpx[Groups], cpy[Groups], cpz[Groups];  // a: −1/(2β²)
+    vec s[Groups], ws[Groups], r[Groups], a[Groups], cpx[Groups], cpy[Groups], cpz[Groups];  // a: light_plane_scale
     [[maybe_unused]] vec cnx[Groups], cny[Groups], cnz[Groups];
     [[maybe_unused]] typename S::id cid[Groups];
     for (std::size_t g = 0; g < Groups; ++g) {
         const std::size_t x = x0 + g * N, c = centre_at + x;
         r[g] = S::load(radius + x);
-        a[g] = -S::load(inv_two_beta2 + x);  // −1/(2β²): d²·(−a) has the bits of −d²·a
+        a[g] = light_plane_scale<T>(S::load(inv_two_beta2 + x));
         s[g] = S::load(v + c);
         ws[g] = S::splat(T(1));
         cpx[g] = S::load(&rows.px[c]), cpy[g] = S::load(&rows.py[c]), cpz[g] = S::load(&rows.pz[c]);
@@ -590,8 +601,9 @@ void light_plane_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& 
         vec d2;
         if constexpr (Tangent) d2 = plane_distance2<vec>(dx, dy, dz, cnx[g], cny[g], cnz[g]);
         else d2 = plane_distance2<vec>(dx, dy, dz, lnx, lny, lnz);
-        const vec weight = light_plane_weight<T>(d2 * a[g]);
-        ok = ok & (weight == weight);  // a NaN position (the weight is never ±Inf)
+        const vec e2 = d2 * a[g];
+        ok = ok & light_plane_accepts<T>(e2);  // false for a NaN position or a negligible weight
+        const vec weight = light_plane_weight<T>(e2);
         s[g] = S::select(ok, s[g] + weight * value, s[g]);
         ws[g] = S::select(ok, ws[g] + weight, ws[g]);
     };
@@ -654,8 +666,8 @@ void light_plane_taps(std::size_t n, T k, T cos_threshold, const glm::vec<3, T>&
         const glm::vec<3, T> p{cpx[i], cpy[i], cpz[i]}, q{c.px[i], c.py[i], c.pz[i]};
         glm::vec<3, T> axis = ln;
         if constexpr (Tangent) axis = {cnx[i], cny[i], cnz[i]};
-        const T weight = light_plane_weight<T>(-light_plane_distance2<T>(q, p, axis) * inv_two_beta2[i]);
-        if (!std::isfinite(weight)) return;  // NaN position
+        const T weight = light_plane_weight<T>(light_plane_distance2<T>(q, p, axis) * light_plane_scale<T>(inv_two_beta2[i]));
+        if (!std::isfinite(weight)) return;  // NaN position, or a negligible weight
         sum[i] += weight * c.v[i];
         wsum[i] += weight;
     };
