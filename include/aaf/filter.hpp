@@ -1013,14 +1013,14 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 T* inv_two_beta2 = ws.block_inv_two_beta2.data();
                 for (std::size_t y = block; y < block_end; ++y) {
                     const std::size_t i = y - block;
-                    const auto C = rows.at((y - first_row) * w);
+                    const auto C = rows.at(row_start(y - first_row));
                     const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
                     std::copy_n(st.full_radius.data(), w, &B.full_radius[i * w]);
                     setup_lanes<true>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, &B.radius[i * w],
                                       st.a.data(), st.wk.data(), st.sum.data(), st.wsum.data(), &inv_two_beta2[i * w]);
                     for (std::size_t k = 1; k < R; ++k) {
-                        B.left[i * R + k] = (k <= y ? y - k - first_row : nan_row) * w;
-                        B.right[i * R + k] = (y + k < h ? y + k - first_row : nan_row) * w;
+                        B.left[i * R + k] = row_start(k <= y ? y - k - first_row : nan_row);
+                        B.right[i * R + k] = row_start(y + k < h ? y + k - first_row : nan_row);
                     }
                 }
                 constexpr std::size_t N = simd<T>::lanes;
@@ -1028,13 +1028,13 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                     for (std::size_t y = block; y < block_end; ++y) {
                         const std::size_t i = y - block;
                         light_plane_lane_groups<1, Space == offset_space::tangent_plane, T>(
-                            std::min(x0, w - N), (y - first_row) * w, rows, &B.left[i * R], &B.right[i * R],
+                            std::min(x0, w - N), row_start(y - first_row), rows, &B.left[i * R], &B.right[i * R],
                             &B.radius[i * w], &inv_two_beta2[i * w], light_normal, cos_threshold, &B.sum[i * w],
                             &B.wsum[i * w]);
                     }
                 for (std::size_t y = block; y < block_end; ++y) {
                     const std::size_t i = y - block;
-                    const auto C = rows.at((y - first_row) * w);
+                    const auto C = rows.at(row_start(y - first_row));
                     normalise_lanes(w, C.v, &B.radius[i * w], &B.sum[i * w], &B.wsum[i * w], st.out.data());
                     store_row(st.out.data(), dst, y);
                     std::copy_n(&inv_two_beta2[i * w], w, st.inv_two_beta2.data());  // the scalar rule's 1/(2β²)
@@ -1060,8 +1060,9 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             // Set up the lanes. A lane with taps has a finite centre (and position); the others get radius 0.
             const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
             if constexpr (horizontal) row_reach[y] = largest_radius(st.full_radius.data(), w);
-            if (horizontal && frame) {  // image space, vectors: the vertical pass reads these radii
+            if (horizontal && frame)  // vectors: the vertical pass reads these radii (image space)
                 std::copy_n(st.full_radius.data(), w, &frame->radius[y * w]);
+            if (horizontal && frame && !light_plane) {
                 image_lanes<T>(w, C.v, st.full_radius.data(), bw, dw, st.radius.data(), st.a.data());
             } else {
                 setup_lanes<light_plane>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, st.radius.data(), st.a.data(),
@@ -1105,8 +1106,8 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                         if constexpr (horizontal) {
                             ws.left[k] = centre_at - k, ws.right[k] = centre_at + k;
                         } else {
-                            ws.left[k] = (k <= y ? y - k - first_row : nan_row) * w;
-                            ws.right[k] = (y + k < h ? y + k - first_row : nan_row) * w;
+                            ws.left[k] = row_start(k <= y ? y - k - first_row : nan_row);
+                            ws.right[k] = row_start(y + k < h ? y + k - first_row : nan_row);
                         }
                     }
                     light_plane_row_vector<Space == offset_space::tangent_plane, T>(
@@ -1150,7 +1151,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             normalise_lanes(w, C.v, st.radius.data(), st.sum.data(), st.wsum.data(), out);
             if (out == st.out.data()) store_row(out, dst, y);
             fix_non_finite_centres(y, C.v, st.full_radius.data());
-            if constexpr (horizontal && !light_plane)
+            if constexpr (horizontal)
                 if (frame) frame_row_to_results(rows, centre_at, const_image_view<T>(dst), g, y, st.out.data());
         }
     }
@@ -1163,10 +1164,10 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
 /// Working memory of filter_visibility, kept between calls so that a frame loop allocates nothing per
 /// call: each pixel's Gaussian decay (image space, one T per pixel), each row's reach, and one set of lane
 /// state and row copies per concurrent task (about 20–40 bytes per copied pixel for 64 rows and the rows
-/// within reach). In image space on the vector path (width ≥ one vector, max_radius + 2 ≤ about half the
-/// width) the rows are copied once per frame instead: the values, radii and used guides of every pixel
-/// (2 T, + 3 T with normals, + 4 bytes with IDs per pixel; 24 bytes in float with both, on rows padded
-/// by 2·32 elements). It grows to the largest frame and task count it has served and is independent of
+/// within reach). On the vector path (width ≥ one vector, max_radius + 2 ≤ about half the width) the rows
+/// are copied once per frame instead: the values, radii and used guides of every pixel (2 T, + 3 T with
+/// normals, + 4 bytes with IDs, + 3 T with positions on the light plane per pixel; 24 bytes in
+/// float with normals and IDs, on rows padded by 2·32 elements). It grows to the largest frame and task count it has served and is independent of
 /// the guides and offset space. Not thread-safe: one call at a time per workspace. Its contents are internal.
 template <class T>
 struct filter_workspace {
@@ -1226,11 +1227,22 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
             const T len = glm::length(light_normal);
             if (!(len > T(0)) || !std::isfinite(len)) throw_invalid(fn, "`light_normal` must be a finite non-zero vector");
             const glm::vec<3, T> n = light_normal / len;
+            // As in image space below: the frame's rows copied once, by the horizontal pass, for both passes
+            // (the vertical pass copied the rows within reach of each block again: ~20 % of its time).
+            row_buffers<T>* frame = nullptr;
+            if (use_image_frame_rows(w, s)) {
+                tap_rows<T, G, offset_space::light_plane> rows(workspace.frame);
+                const std::size_t stride = image_frame_layout(w, s).stride;
+                rows.resize(h + 1, stride, true);
+                rows.fill(h, 0, stride);
+                if (workspace.frame.radius.size() < w * h) workspace.frame.radius.resize(w * h);
+                frame = &workspace.frame;
+            }
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
+                pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws, frame); });
             });
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
+                pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws, frame); });
             });
             return;
         }
