@@ -856,8 +856,9 @@ void per_pixel_pass(aaf::const_image_view<T> src, aaf::image_view<T> dst, aaf::c
                     if (!std::isfinite(v) || !gc.accepts(g, nx, ny, cos_thr)) continue;
                     T weight = wk;
                     if (light_plane) {
-                        const T e = -ad::light_plane_distance2(g, nx, ny, p, ln) * inv_two_beta2;
-                        weight = library_exp ? ad::light_plane_weight<T>(e) : std::exp(e);
+                        const T d2 = ad::light_plane_distance2(g, nx, ny, p, ln);
+                        weight = library_exp ? ad::light_plane_weight<T>(d2 * ad::light_plane_scale<T>(inv_two_beta2))
+                                             : std::exp(-d2 * inv_two_beta2);
                         if (!std::isfinite(weight)) continue;
                     }
                     sum += weight * v;

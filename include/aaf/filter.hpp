@@ -524,22 +524,33 @@ void image_row_vector(std::size_t w, std::size_t centre_at, const Rows& rows, co
 }
 #endif
 
-/// The light-plane weight of a tap, e^(−distance²/(2β²)), for a scalar or a vector of lanes: one definition
-/// (exp_nonpositive, simd_exp.hpp) so that the vector lanes and the scalar remainder compute the same bits.
-/// std::exp per tap was 8–14x the cost of the image-space filter (docs/DEVIATIONS.md: within 2 ulp of it;
-/// weights below 2.5e−38 in float are 0).
+/// The light-plane weight of a tap, e^(−d²/(2β²)) = 2^(d²·scale), evaluated as exp2_nonpositive (simd_exp.hpp):
+/// `scale` = light_plane_scale(1/(2β²)) = −log2(e)/(2β²), once per centre. std::exp per tap was 8–14x the
+/// cost of the image-space filter (docs/DEVIATIONS.md F1: within 2 ulp of it). A tap whose exponent d²·scale
+/// is NaN (a NaN position) or below exp2_lowest (a weight below 2^−125 ≈ 2.4e−38 in float, next to the
+/// centre's 1) is dropped: the vector lanes test light_plane_accepts; the scalar form returns NaN, which
+/// its callers reject as a non-finite weight.
+template <class T, class V = T>
+[[nodiscard]] V light_plane_scale(V inv_two_beta2) noexcept {
+    return inv_two_beta2 * T(-1.4426950408889634073599246810018921);  // −log2(e)/(2β²)
+}
 template <class T, class V>
-[[nodiscard]] V light_plane_weight(V exponent) noexcept {
+[[nodiscard]] V light_plane_weight(V exponent2) noexcept {
     using U = std::conditional_t<sizeof(T) == 8, std::uint64_t, std::uint32_t>;
 #if AAF_SIMD_BYTES > 0
     if constexpr (!std::is_same_v<V, T>) {
         typedef U uvec __attribute__((vector_size(sizeof(V))));
-        return exp_nonpositive<T, V, uvec>(exponent);
+        return exp2_nonpositive<T, V, uvec>(exponent2);
     } else
 #endif
     {
-        return exp_nonpositive<T, V, U>(exponent);
+        return exponent2 >= exp2_lowest<T> ? exp2_nonpositive<T, V, U>(exponent2) : std::numeric_limits<T>::quiet_NaN();
     }
+}
+/// Whether the lanes' exponents d²·scale are in exp2_nonpositive's domain (false for NaN).
+template <class T, class V>
+[[nodiscard]] auto light_plane_accepts(V exponent2) noexcept {
+    return exponent2 >= exp2_lowest<T>;
 }
 
 #if AAF_SIMD_BYTES > 0
@@ -561,13 +572,13 @@ void light_plane_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& 
     constexpr std::size_t N = S::lanes;
     constexpr bool normals = Rows::normals, ids = Rows::ids;
     const T* AAF_DETAIL_RESTRICT v = rows.v;
-    vec s[Groups], ws[Groups], r[Groups], a[Groups], cpx[Groups], cpy[Groups], cpz[Groups];  // a: −1/(2β²)
+    vec s[Groups], ws[Groups], r[Groups], a[Groups], cpx[Groups], cpy[Groups], cpz[Groups];  // a: light_plane_scale
     [[maybe_unused]] vec cnx[Groups], cny[Groups], cnz[Groups];
     [[maybe_unused]] typename S::id cid[Groups];
     for (std::size_t g = 0; g < Groups; ++g) {
         const std::size_t x = x0 + g * N, c = centre_at + x;
         r[g] = S::load(radius + x);
-        a[g] = -S::load(inv_two_beta2 + x);  // −1/(2β²): d²·(−a) has the bits of −d²·a
+        a[g] = light_plane_scale<T>(S::load(inv_two_beta2 + x));
         s[g] = S::load(v + c);
         ws[g] = S::splat(T(1));
         cpx[g] = S::load(&rows.px[c]), cpy[g] = S::load(&rows.py[c]), cpz[g] = S::load(&rows.pz[c]);
@@ -590,8 +601,9 @@ void light_plane_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& 
         vec d2;
         if constexpr (Tangent) d2 = plane_distance2<vec>(dx, dy, dz, cnx[g], cny[g], cnz[g]);
         else d2 = plane_distance2<vec>(dx, dy, dz, lnx, lny, lnz);
-        const vec weight = light_plane_weight<T>(d2 * a[g]);
-        ok = ok & (weight == weight);  // a NaN position (the weight is never ±Inf)
+        const vec e2 = d2 * a[g];
+        ok = ok & light_plane_accepts<T>(e2);  // false for a NaN position or a negligible weight
+        const vec weight = light_plane_weight<T>(e2);
         s[g] = S::select(ok, s[g] + weight * value, s[g]);
         ws[g] = S::select(ok, ws[g] + weight, ws[g]);
     };
@@ -654,8 +666,8 @@ void light_plane_taps(std::size_t n, T k, T cos_threshold, const glm::vec<3, T>&
         const glm::vec<3, T> p{cpx[i], cpy[i], cpz[i]}, q{c.px[i], c.py[i], c.pz[i]};
         glm::vec<3, T> axis = ln;
         if constexpr (Tangent) axis = {cnx[i], cny[i], cnz[i]};
-        const T weight = light_plane_weight<T>(-light_plane_distance2<T>(q, p, axis) * inv_two_beta2[i]);
-        if (!std::isfinite(weight)) return;  // NaN position
+        const T weight = light_plane_weight<T>(light_plane_distance2<T>(q, p, axis) * light_plane_scale<T>(inv_two_beta2[i]));
+        if (!std::isfinite(weight)) return;  // NaN position, or a negligible weight
         sum[i] += weight * c.v[i];
         wsum[i] += weight;
     };
@@ -1001,14 +1013,14 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 T* inv_two_beta2 = ws.block_inv_two_beta2.data();
                 for (std::size_t y = block; y < block_end; ++y) {
                     const std::size_t i = y - block;
-                    const auto C = rows.at((y - first_row) * w);
+                    const auto C = rows.at(row_start(y - first_row));
                     const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
                     std::copy_n(st.full_radius.data(), w, &B.full_radius[i * w]);
                     setup_lanes<true>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, &B.radius[i * w],
                                       st.a.data(), st.wk.data(), st.sum.data(), st.wsum.data(), &inv_two_beta2[i * w]);
                     for (std::size_t k = 1; k < R; ++k) {
-                        B.left[i * R + k] = (k <= y ? y - k - first_row : nan_row) * w;
-                        B.right[i * R + k] = (y + k < h ? y + k - first_row : nan_row) * w;
+                        B.left[i * R + k] = row_start(k <= y ? y - k - first_row : nan_row);
+                        B.right[i * R + k] = row_start(y + k < h ? y + k - first_row : nan_row);
                     }
                 }
                 constexpr std::size_t N = simd<T>::lanes;
@@ -1016,13 +1028,13 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                     for (std::size_t y = block; y < block_end; ++y) {
                         const std::size_t i = y - block;
                         light_plane_lane_groups<1, Space == offset_space::tangent_plane, T>(
-                            std::min(x0, w - N), (y - first_row) * w, rows, &B.left[i * R], &B.right[i * R],
+                            std::min(x0, w - N), row_start(y - first_row), rows, &B.left[i * R], &B.right[i * R],
                             &B.radius[i * w], &inv_two_beta2[i * w], light_normal, cos_threshold, &B.sum[i * w],
                             &B.wsum[i * w]);
                     }
                 for (std::size_t y = block; y < block_end; ++y) {
                     const std::size_t i = y - block;
-                    const auto C = rows.at((y - first_row) * w);
+                    const auto C = rows.at(row_start(y - first_row));
                     normalise_lanes(w, C.v, &B.radius[i * w], &B.sum[i * w], &B.wsum[i * w], st.out.data());
                     store_row(st.out.data(), dst, y);
                     std::copy_n(&inv_two_beta2[i * w], w, st.inv_two_beta2.data());  // the scalar rule's 1/(2β²)
@@ -1048,8 +1060,9 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             // Set up the lanes. A lane with taps has a finite centre (and position); the others get radius 0.
             const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
             if constexpr (horizontal) row_reach[y] = largest_radius(st.full_radius.data(), w);
-            if (horizontal && frame) {  // image space, vectors: the vertical pass reads these radii
+            if (horizontal && frame)  // vectors: the vertical pass reads these radii (image space)
                 std::copy_n(st.full_radius.data(), w, &frame->radius[y * w]);
+            if (horizontal && frame && !light_plane) {
                 image_lanes<T>(w, C.v, st.full_radius.data(), bw, dw, st.radius.data(), st.a.data());
             } else {
                 setup_lanes<light_plane>(w, C.v, C.px, C.py, C.pz, st.full_radius.data(), bw, dw, st.radius.data(), st.a.data(),
@@ -1093,8 +1106,8 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                         if constexpr (horizontal) {
                             ws.left[k] = centre_at - k, ws.right[k] = centre_at + k;
                         } else {
-                            ws.left[k] = (k <= y ? y - k - first_row : nan_row) * w;
-                            ws.right[k] = (y + k < h ? y + k - first_row : nan_row) * w;
+                            ws.left[k] = row_start(k <= y ? y - k - first_row : nan_row);
+                            ws.right[k] = row_start(y + k < h ? y + k - first_row : nan_row);
                         }
                     }
                     light_plane_row_vector<Space == offset_space::tangent_plane, T>(
@@ -1138,7 +1151,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             normalise_lanes(w, C.v, st.radius.data(), st.sum.data(), st.wsum.data(), out);
             if (out == st.out.data()) store_row(out, dst, y);
             fix_non_finite_centres(y, C.v, st.full_radius.data());
-            if constexpr (horizontal && !light_plane)
+            if constexpr (horizontal)
                 if (frame) frame_row_to_results(rows, centre_at, const_image_view<T>(dst), g, y, st.out.data());
         }
     }
@@ -1151,10 +1164,10 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
 /// Working memory of filter_visibility, kept between calls so that a frame loop allocates nothing per
 /// call: each pixel's Gaussian decay (image space, one T per pixel), each row's reach, and one set of lane
 /// state and row copies per concurrent task (about 20–40 bytes per copied pixel for 64 rows and the rows
-/// within reach). In image space on the vector path (width ≥ one vector, max_radius + 2 ≤ about half the
-/// width) the rows are copied once per frame instead: the values, radii and used guides of every pixel
-/// (2 T, + 3 T with normals, + 4 bytes with IDs per pixel; 24 bytes in float with both, on rows padded
-/// by 2·32 elements). It grows to the largest frame and task count it has served and is independent of
+/// within reach). On the vector path (width ≥ one vector, max_radius + 2 ≤ about half the width) the rows
+/// are copied once per frame instead: the values, radii and used guides of every pixel (2 T, + 3 T with
+/// normals, + 4 bytes with IDs, + 3 T with positions on the light plane per pixel; 24 bytes in
+/// float with normals and IDs, on rows padded by 2·32 elements). It grows to the largest frame and task count it has served and is independent of
 /// the guides and offset space. Not thread-safe: one call at a time per workspace. Its contents are internal.
 template <class T>
 struct filter_workspace {
@@ -1214,11 +1227,22 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
             const T len = glm::length(light_normal);
             if (!(len > T(0)) || !std::isfinite(len)) throw_invalid(fn, "`light_normal` must be a finite non-zero vector");
             const glm::vec<3, T> n = light_normal / len;
+            // As in image space below: the frame's rows copied once, by the horizontal pass, for both passes
+            // (the vertical pass copied the rows within reach of each block again: ~20 % of its time).
+            row_buffers<T>* frame = nullptr;
+            if (use_image_frame_rows(w, s)) {
+                tap_rows<T, G, offset_space::light_plane> rows(workspace.frame);
+                const std::size_t stride = image_frame_layout(w, s).stride;
+                rows.resize(h + 1, stride, true);
+                rows.fill(h, 0, stride);
+                if (workspace.frame.radius.size() < w * h) workspace.frame.radius.resize(w * h);
+                frame = &workspace.frame;
+            }
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
+                pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws, frame); });
             });
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
+                pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws, frame); });
             });
             return;
         }

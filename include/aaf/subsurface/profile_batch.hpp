@@ -7,7 +7,7 @@
 // Why explicit vectors and not the auto-vectoriser: without -ffast-math GCC and Clang vectorise neither the
 // sum (floating-point reassociation), nor std::exp (a libm call), nor std::sqrt (it may set errno: "control
 // flow in loop"), so a plain loop stays scalar at every -O level. Here the lanes run on simd.hpp's vectors,
-// the exponential is simd_exp.hpp's polynomial (with its subnormal range), and the square root is simd.hpp's
+// the exponential is simd_exp.hpp's exp_nonpositive (into the subnormals), and the square root is simd.hpp's
 // (the ISA's vector instruction on x86: SSE2, AVX, AVX-512; other targets take it lane by lane). Lanes whose
 // radii are left over go through the scalar dipole::profile.
 
@@ -51,7 +51,7 @@ namespace subsurface {
             acc[c] = zero;
         }
         // e^x down to where std::exp gives 0 (−745.2), so no term that dipole::profile keeps is lost.
-        const auto exp_subnormal = [](V x) { return aaf::detail::exp_nonpositive_of<double, aaf::detail::exp_range::subnormal>(x); };
+        const auto exp_subnormal = [](V x) { return aaf::detail::exp_nonpositive_of<double>(x); };
         for (; i + L <= n; i += L) {
             const V rv = S::load(r + i);
             const V r2 = rv * rv;
