@@ -1193,7 +1193,8 @@ void image_horizontal_rows(const_image_view<T> src, image_view<T> dst, const_ima
     using vec = typename S::vec;
     constexpr std::size_t N = S::lanes, G2 = filter_vector_groups;
     constexpr bool normals = G::has_normals, ids = G::has_ids;
-    constexpr T max_finite = std::numeric_limits<T>::max(), nan = std::numeric_limits<T>::quiet_NaN();
+    constexpr T max_finite = std::numeric_limits<T>::max();
+    [[maybe_unused]] constexpr T nan = std::numeric_limits<T>::quiet_NaN();
     const std::size_t w = src.width(), h = src.height();
     const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
     tap_rows<T, G, offset_space::image> rows(frame);
