@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -445,19 +446,18 @@ void image_taps(std::size_t n, std::size_t k, T cos_threshold, const T* AAF_DETA
 }
 
 #if AAF_SIMD_BYTES > 0
-/// Image-space taps of `Groups` vectors of lanes (simd<T>::lanes centres each) starting at lane `x0` of the
-/// row whose centres are element `centre_at` of `rows`, over all their distances: each lane's state (sums,
-/// weight recurrence, radius, centre guides) stays in registers from k = 1 to the group's largest radius.
-/// `left[k]`, `right[k]` are the elements of `rows` holding lane 0's neighbours at −k and +k. Writes the
-/// lanes' sums to `sum`, `wsum` (indexed by lane). Each lane performs the arithmetic of image_taps (and of
-/// the per-pixel definition) in the same order — w·m, m·q, the −k side, then the +k side, a rejected tap a
-/// select, not an add of 0 — so the results are the same bits. Several groups at once give the processor
-/// independent dependency chains (one group's sum is a chain of adds through its two sides).
-template <std::size_t Groups, class T, class Rows>
-void image_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& rows, const std::size_t* AAF_DETAIL_RESTRICT left,
-                       const std::size_t* AAF_DETAIL_RESTRICT right, const T* AAF_DETAIL_RESTRICT radius,
-                       const T* AAF_DETAIL_RESTRICT m1, T cos_threshold, T* AAF_DETAIL_RESTRICT sum,
-                       T* AAF_DETAIL_RESTRICT wsum) noexcept {
+/// Image-space taps of `Groups` vectors of lanes (simd<T>::lanes centres each; group g's centres start at
+/// element `centre(g)` of `rows`), over all their distances: each lane's state (sums, weight recurrence,
+/// radius, centre guides) stays in registers from k = 1 to the groups' largest radius. `radius[g]` holds
+/// the lanes' radii (0: no taps), `m1[g]` their m_1 = exp(−a); `side(k, g)` returns the elements of `rows`
+/// where group g's neighbours at −k and +k start (a std::pair). Calls `finish(g, sum, wsum)` per group
+/// with the lanes' sums. Each lane performs the arithmetic of image_taps (and of the per-pixel definition) in
+/// the same order — w·m, m·q, the −k side, then the +k side, a rejected tap a select, not an add of 0 — so
+/// the results are the same bits. Several groups at once give the processor independent dependency chains
+/// (one group's sum is a chain of adds through its two sides).
+template <std::size_t Groups, class T, class Rows, class Centre, class Side, class Finish>
+void image_lane_group_taps(const Rows& rows, Centre&& centre, const typename simd<T>::vec* radius,
+                           const typename simd<T>::vec* m1, T cos_threshold, Side&& side, Finish&& finish) noexcept {
     using S = simd<T>;
     using vec = typename S::vec;
     using mask = typename S::mask;
@@ -467,19 +467,23 @@ void image_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& rows, 
     vec s[Groups], ws[Groups], wk[Groups], mk[Groups], q[Groups], r[Groups];
     [[maybe_unused]] vec cnx[Groups], cny[Groups], cnz[Groups];
     [[maybe_unused]] typename S::id cid[Groups];
+    std::int32_t steps = 0;  // the largest radius (whole numbers in [0, 1024]; an integer max vectorises)
     for (std::size_t g = 0; g < Groups; ++g) {
-        const std::size_t x = x0 + g * N, c = centre_at + x;
-        r[g] = S::load(radius + x);
-        mk[g] = S::load(m1 + x);
+        const std::size_t c = centre(g);
+        r[g] = radius[g];
+        mk[g] = m1[g];
         q[g] = mk[g] * mk[g];
         s[g] = S::load(v + c);
         ws[g] = S::splat(T(1));
         wk[g] = S::splat(T(1));
         if constexpr (normals) cnx[g] = S::load(&rows.nx[c]), cny[g] = S::load(&rows.ny[c]), cnz[g] = S::load(&rows.nz[c]);
         if constexpr (ids) cid[g] = S::template load<typename S::id>(&rows.id[c]);
+        const auto whole = __builtin_convertvector(r[g], mask);
+        for (std::size_t l = 0; l < N; ++l) steps = std::max(steps, static_cast<std::int32_t>(whole[l]));
     }
-    const std::size_t steps = largest_radius(radius + x0, Groups * N);
     const vec threshold = S::splat(cos_threshold);
+    // The radius test is in `tap`, not shared by the two sides: GCC 12 turns an AVX-512 mask used by two
+    // taps into bit-by-bit scalar code (4x slower).
     const auto tap = [&](std::size_t g, std::size_t i, vec distance) {
         const vec value = S::load(v + i);
         mask ok = distance <= r[g];
@@ -492,17 +496,39 @@ void image_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& rows, 
         s[g] = S::select(ok, s[g] + wk[g] * value, s[g]);
         ws[g] = S::select(ok, ws[g] + wk[g], ws[g]);
     };
-    for (std::size_t k = 1; k <= steps; ++k) {
+    for (std::size_t k = 1; k <= static_cast<std::size_t>(steps); ++k) {
         const vec distance = S::splat(static_cast<T>(k));
-        const std::size_t l = left[k] + x0, rr = right[k] + x0;
         for (std::size_t g = 0; g < Groups; ++g) {
+            const auto [l, rr] = side(k, g);
             wk[g] = wk[g] * mk[g];
             mk[g] = mk[g] * q[g];
-            tap(g, l + g * N, distance);
-            tap(g, rr + g * N, distance);
+            tap(g, l, distance);
+            tap(g, rr, distance);
         }
     }
-    for (std::size_t g = 0; g < Groups; ++g) S::store(sum + x0 + g * N, s[g]), S::store(wsum + x0 + g * N, ws[g]);
+    for (std::size_t g = 0; g < Groups; ++g) finish(g, s[g], ws[g]);
+}
+
+/// image_lane_group_taps for lanes [x0, x0 + Groups·lanes) of a row whose centres are element `centre_at`
+/// of `rows`, with their radii and m_1 in arrays indexed by lane and lane 0's neighbours at −k and +k at
+/// elements `left[k]`, `right[k]` of `rows`; writes the sums to `sum`, `wsum` (indexed by lane).
+template <std::size_t Groups, class T, class Rows>
+void image_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& rows, const std::size_t* AAF_DETAIL_RESTRICT left,
+                       const std::size_t* AAF_DETAIL_RESTRICT right, const T* AAF_DETAIL_RESTRICT radius,
+                       const T* AAF_DETAIL_RESTRICT m1, T cos_threshold, T* AAF_DETAIL_RESTRICT sum,
+                       T* AAF_DETAIL_RESTRICT wsum) noexcept {
+    using S = simd<T>;
+    constexpr std::size_t N = S::lanes;
+    typename S::vec r[Groups], m[Groups];
+    for (std::size_t g = 0; g < Groups; ++g) r[g] = S::load(radius + x0 + g * N), m[g] = S::load(m1 + x0 + g * N);
+    image_lane_group_taps<Groups, T>(
+        rows, [&](std::size_t g) { return centre_at + x0 + g * N; }, r, m, cos_threshold,
+        [&](std::size_t k, std::size_t g) {
+            return std::pair<std::size_t, std::size_t>(left[k] + x0 + g * N, right[k] + x0 + g * N);
+        },
+        [&](std::size_t g, typename S::vec s, typename S::vec ws) {
+            S::store(sum + x0 + g * N, s), S::store(wsum + x0 + g * N, ws);
+        });
 }
 
 /// Groups of lanes processed together by image_lane_groups: two independent chains per distance hide the
@@ -844,7 +870,10 @@ template <class T>
     constexpr std::size_t line = 64 / sizeof(T);
     const auto round_up = [](std::size_t n) { return (n + line - 1) / line * line; };
     const std::size_t margin = round_up(image_row_margin(s));
-    return {margin, round_up(w) + 2 * margin};
+    const std::size_t stride = round_up(w) + 2 * margin;
+    // An odd number of lines per row: the vertical pass reads one column of lines through many rows, and
+    // an even count maps those rows onto a fraction of the L1 sets (1280 px: 84 lines, a quarter of them).
+    return {margin, (stride / line) % 2 ? stride : stride + line};
 }
 
 /// Whether the image-space passes keep the frame's structure-of-arrays copies (`frame`, see filter_pass):
@@ -1157,6 +1186,231 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
     }
 }
 
+#if AAF_SIMD_BYTES > 0
+/// Rows per task of the horizontal image-space pass on the frame's rows (image_horizontal_rows): small,
+/// so that two or three threads share the rows evenly (a 64-row task was a twelfth of a 720-row frame).
+inline constexpr std::size_t image_rows_per_task = 16;
+
+/// The horizontal image-space pass (filter_pass's definition) over rows [y_begin, y_end) into `dst`, on
+/// the frame's rows (filter_visibility_impl's `frame`): each row is copied there once (values, normals,
+/// IDs; with packed views in one loop with the kernel radii and a = 1/(2(β/d)²), which the vertical pass
+/// then reads too), filtered by image_lane_group_taps in place, and its values replaced by the results
+/// (frame_row_to_results). `decay` gets each pixel's m_1 = exp(−a) (0 without a kernel). The lanes do
+/// image_lane_group_taps's arithmetic and normalise_lanes's selection: the same bits as filter_pass,
+/// whatever the split. (Prefetching the next row into L2 while a row's taps run measured no faster.)
+template <class T, class G>
+void image_horizontal_rows(const_image_view<T> src, image_view<T> dst, const_image_view<T> beta,
+                           const_image_view<T> pixel_size, const G& g, const filter_settings<T>& s, row_buffers<T>& frame,
+                           T* decay, pass_workspace<T>& ws, std::size_t y_begin, std::size_t y_end) {
+    using S = simd<T>;
+    using vec = typename S::vec;
+    constexpr std::size_t N = S::lanes, G2 = filter_vector_groups;
+    constexpr bool normals = G::has_normals, ids = G::has_ids;
+    constexpr T max_finite = std::numeric_limits<T>::max();
+    [[maybe_unused]] constexpr T nan = std::numeric_limits<T>::quiet_NaN();
+    const std::size_t w = src.width(), h = src.height();
+    const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
+    tap_rows<T, G, offset_space::image> rows(frame);
+    const frame_layout fl = image_frame_layout(w, s);
+    rows.resize(h + 1, fl.stride, true);  // already that size: no allocation, the same arrays in every task
+    lane_state<T>& st = ws.st;
+    T* AAF_DETAIL_RESTRICT radius = st.radius.data();
+    T* AAF_DETAIL_RESTRICT a = st.a.data();
+    // One loop per row when every view is packed (GLM's packed vectors for the normals), else the general
+    // row copies (tap_rows::load, row_radii, image_lanes), which compute the same numbers.
+    bool fused = src.packed_rows() && beta.packed_rows() && pixel_size.packed_rows();
+    if constexpr (normals) fused = fused && g.normals.packed_rows() && sizeof(glm::vec<3, T>) == 3 * sizeof(T);
+    if constexpr (ids) fused = fused && g.ids.packed_rows();
+    const T truncation = s.truncation, max_radius = static_cast<T>(s.max_radius);
+    for (std::size_t y = y_begin; y < y_end; ++y) {
+        const std::size_t c = y * fl.stride + fl.margin;
+        rows.fill(y, 0, fl.margin);  // the margins, once per call
+        rows.fill(y, fl.margin + w, fl.stride);
+        T* AAF_DETAIL_RESTRICT full = &frame.radius[y * w];
+        if (fused) {
+            const T* AAF_DETAIL_RESTRICT vin = &src(0, y);
+            const T* AAF_DETAIL_RESTRICT bw = &beta(0, y);
+            const T* AAF_DETAIL_RESTRICT dw = &pixel_size(0, y);
+            T* AAF_DETAIL_RESTRICT v = rows.v + c;
+            // tap_rows::load (a non-finite value gets a NaN normal x), row_radii and image_lanes, per vector.
+            const auto lanes = [&](std::size_t x, vec value) {
+                S::store(v + x, value);
+                const auto finite = S::finite(value);
+                if constexpr (normals) {
+                    vec nx, ny, nz;
+                    S::deinterleave3(&g.normals(x, y).x, nx, ny, nz);
+                    S::store(rows.nx + c + x, S::select(finite, nx, S::splat(nan)));
+                    S::store(rows.ny + c + x, ny), S::store(rows.nz + c + x, nz);
+                }
+                if constexpr (ids) std::memcpy(rows.id + c + x, &g.ids(x, y), N * sizeof(std::uint32_t));
+                const vec b = S::load(bw + x), d = S::load(dw + x), beta_px = b / d, zero = S::splat(T(0));
+                const vec t = truncation * beta_px, capped = S::select(t < max_radius, t, S::splat(max_radius));
+                const typename S::mask has = (b > zero) & (d > zero) & (beta_px > zero);
+                const vec whole = __builtin_convertvector(__builtin_convertvector(S::select(has, capped, zero), typename S::mask), vec);
+                const vec r = S::select(has, S::select(whole < capped, whole + T(1), whole), zero);
+                S::store(full + x, r);
+                S::store(radius + x, S::select(finite, r, zero));
+                S::store(a + x, T(1) / (T(2) * beta_px * beta_px));
+            };
+            std::size_t x = 0;
+            for (; x + N <= w; x += N) lanes(x, S::load(vin + x));
+            if (x < w) lanes(w - N, S::load(vin + w - N));  // the last vector again, ending at w − 1: same numbers
+        } else {
+            rows.load(y, fl.margin, src, g, y);
+            const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
+            std::copy_n(st.full_radius.data(), w, full);
+            image_lanes<T>(w, rows.v + c, full, bw, dw, radius, a);
+        }
+        // w_k = exp(-k² a) by the recurrence w_k = w_{k-1}·m_k, m_k = exp(-(2k-1)a), q = exp(-2a).
+        T* AAF_DETAIL_RESTRICT m1 = decay + y * w;
+        for (std::size_t x = 0; x < w; ++x) m1[x] = full[x] > T(0) ? std::exp(-a[x]) : T(0);
+        T* out = dst.packed_rows() ? &dst(0, y) : st.out.data();  // straight into a packed destination row
+        const T* cv = rows.v + c;
+        const auto group = [&](auto groups, std::size_t x0) {
+            constexpr std::size_t Groups = decltype(groups)::value;
+            vec r[Groups], m[Groups];
+            for (std::size_t j = 0; j < Groups; ++j) r[j] = S::load(radius + x0 + j * N), m[j] = S::load(m1 + x0 + j * N);
+            image_lane_group_taps<Groups, T>(
+                rows, [&](std::size_t j) { return c + x0 + j * N; }, r, m, cos_threshold,
+                [&](std::size_t k, std::size_t j) {
+                    return std::pair<std::size_t, std::size_t>(c + x0 + j * N - k, c + x0 + j * N + k);
+                },
+                [&](std::size_t j, vec sum, vec wsum) {  // normalise_lanes
+                    const std::size_t x = x0 + j * N;
+                    const vec zero = S::splat(T(0));
+                    S::store(out + x, S::select((r[j] > zero) & (wsum > zero), sum / wsum, S::load(cv + x)));
+                });
+        };
+        std::size_t x0 = 0;
+        for (; x0 + G2 * N <= w; x0 += G2 * N) group(std::integral_constant<std::size_t, G2>{}, x0);
+        for (; x0 < w; x0 += N) group(std::integral_constant<std::size_t, 1>{}, std::min(x0, w - N));
+        if (out == st.out.data()) store_row(out, dst, y);
+        // A non-finite centre with a kernel (rare): the scalar rule (filter_pass).
+        if (any_non_finite_centre(w, cv, full))
+            for (std::size_t x = 0; x < w; ++x) {
+                const T centre = cv[x];
+                if (!(full[x] > T(0)) || std::abs(centre) <= max_finite) continue;
+                const T beta_px = beta(x, y) / pixel_size(x, y);
+                dst(x, y) = non_finite_centre_average<pass_direction::horizontal, offset_space::image>(
+                    src, g, guide_center<T, G>(g, x, y), glm::vec<3, T>(0), glm::vec<3, T>(0), x, y, x, w,
+                    static_cast<std::size_t>(full[x]), T(1) / (T(2) * beta_px * beta_px), T(0), cos_threshold, centre);
+            }
+        frame_row_to_results(rows, c, const_image_view<T>(dst), g, y, st.out.data());
+    }
+}
+#endif
+
+#if AAF_SIMD_BYTES > 0
+/// Vectors side by side in a column of the vertical image-space pass on the frame's rows, which takes two
+/// rows at a time: 2 × 2 vectors (four independent chains) with 32 vector registers (AVX-512), 2 × 1 with
+/// 16 (AVX2, SSE), where four spill. Measured on 1280×720 (AMD EPYC, Zen 5; vertical pass, CPU time):
+/// AVX-512 1 × 2 vectors 9.0 ms, 2 × 1 8.4–9.0, 2 × 2 7.8–8.4; x86-64-v3 1 × 2 9.4–9.8, 2 × 1 8.9–9.2,
+/// 2 × 2 15–16.
+inline constexpr std::size_t image_column_vectors = simd_bytes == 64 ? 2 : 1;
+
+/// Columns per task of the vertical image-space pass on the frame's rows (image_vertical_columns): one
+/// column of image_column_vectors vectors, whose rows within reach stay in L1 while it walks the image.
+template <class T>
+[[nodiscard]] constexpr std::size_t image_column_width() noexcept {
+    return image_column_vectors * simd<T>::lanes;
+}
+
+/// The tasks of the vertical image-space pass on the frame's rows: image_column_width() columns each, the
+/// last one up to the right edge (at least simd<T>::lanes columns, as the width is).
+template <class T>
+[[nodiscard]] std::size_t image_column_tasks(std::size_t w) noexcept {
+    return std::max<std::size_t>(1, w / image_column_width<T>());
+}
+
+/// The vertical image-space pass (filter_pass's definition) over the columns of tasks [task_begin,
+/// task_end) (image_column_tasks), every row, reading the rows the horizontal pass left in `frame` (values
+/// = its results, radii, normals, IDs; filter_visibility_impl) in place. Each column of lanes walks the
+/// whole image top to bottom, so that the rows within its reach are read from memory once and stay in L1
+/// from one centre row to the next (64-row blocks of all columns re-read ~0.75 of every block from L2/L3 for
+/// the rows above and below them, and their taps took twice the horizontal pass's time). The lanes do
+/// image_lane_group_taps's arithmetic and normalise_lanes's selection: the same bits, whatever the split.
+template <class T, class G>
+void image_vertical_columns(const_image_view<T> src, image_view<T> dst, const_image_view<T> beta,
+                            const_image_view<T> pixel_size, const G& g, const filter_settings<T>& s,
+                            row_buffers<T>& frame, const T* decay, std::size_t task_begin, std::size_t task_end) {
+    using S = simd<T>;
+    using vec = typename S::vec;
+    constexpr std::size_t N = S::lanes, C = image_column_vectors, width = image_column_width<T>();
+    const std::size_t w = src.width(), h = src.height(), tasks = image_column_tasks<T>(w);
+    const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
+    tap_rows<T, G, offset_space::image> rows(frame);
+    const frame_layout fl = image_frame_layout(w, s);
+    rows.resize(h + 1, fl.stride, true);  // already that size: no allocation, the same arrays in every task
+    const auto row_start = [&](std::size_t r) { return r * fl.stride + fl.margin; };
+    const T* full_radius = frame.radius.data();
+    const bool packed = dst.packed_rows();
+    // The rows that enter the reach next: the walk's row stride defeats the hardware prefetchers.
+    const std::size_t ahead = std::min<std::size_t>(s.max_radius, 64) + 2;
+    // Rows y0 … y0 + Rows2 − 1 of the column of `Cols` vectors from lane x0: Cols·Rows2 independent chains
+    // (group j: row y0 + j / Cols, lanes from x0 + (j % Cols)·N). Consecutive rows share nearly all their
+    // reach, so a second row adds chains without widening the columns held in L1.
+    const auto step = [&](auto cols, auto rows2, std::size_t x0, std::size_t y0) {
+        constexpr std::size_t Cols = decltype(cols)::value, Rows2 = decltype(rows2)::value, Groups = Cols * Rows2;
+        for (std::size_t dy = 0; dy < Rows2 && y0 + ahead + dy < h; ++dy) {
+            const std::size_t p = row_start(y0 + ahead + dy) + x0;
+            for (std::size_t b = 0; b < Cols * N * sizeof(T); b += 64) {
+                __builtin_prefetch(reinterpret_cast<const char*>(rows.v + p) + b);
+                if constexpr (G::has_normals) {
+                    __builtin_prefetch(reinterpret_cast<const char*>(rows.nx + p) + b);
+                    __builtin_prefetch(reinterpret_cast<const char*>(rows.ny + p) + b);
+                    __builtin_prefetch(reinterpret_cast<const char*>(rows.nz + p) + b);
+                }
+                if constexpr (G::has_ids) __builtin_prefetch(reinterpret_cast<const char*>(rows.id + p) + b);
+            }
+        }
+        const auto row_of = [&](std::size_t j) { return y0 + j / Cols; };
+        const auto lane_of = [&](std::size_t j) { return x0 + (j % Cols) * N; };
+        vec r[Groups], m[Groups];
+        for (std::size_t j = 0; j < Groups; ++j) {  // image_lanes: no taps for a non-finite centre
+            const std::size_t y = row_of(j), x = lane_of(j), at = y * w + x;
+            r[j] = S::select(S::finite(S::load(rows.v + row_start(y) + x)), S::load(full_radius + at), S::splat(T(0)));
+            m[j] = S::load(decay + at);
+        }
+        image_lane_group_taps<Groups, T>(
+            rows, [&](std::size_t j) { return row_start(row_of(j)) + lane_of(j); }, r, m, cos_threshold,
+            [&](std::size_t k, std::size_t j) {
+                const std::size_t y = row_of(j), x = lane_of(j);
+                return std::pair<std::size_t, std::size_t>(row_start(k <= y ? y - k : h) + x, row_start(y + k < h ? y + k : h) + x);
+            },
+            [&](std::size_t j, vec sum, vec wsum) {
+                const std::size_t y = row_of(j), x = lane_of(j), at = y * w + x;
+                const vec cv = S::load(rows.v + row_start(y) + x), zero = S::splat(T(0));
+                const vec out = S::select((r[j] > zero) & (wsum > zero), sum / wsum, cv);  // normalise_lanes
+                if (packed) S::store(&dst(x, y), out);
+                else for (std::size_t l = 0; l < N; ++l) dst(x + l, y) = out[l];
+                // A non-finite centre with a kernel (rare): the scalar rule (filter_pass).
+                const vec full = S::load(full_radius + at);
+                if (!S::any((full > zero) & ~S::finite(cv))) return;
+                for (std::size_t l = 0; l < N; ++l) {
+                    if (!(full[l] > T(0)) || std::isfinite(cv[l])) continue;
+                    const T beta_px = beta(x + l, y) / pixel_size(x + l, y);
+                    dst(x + l, y) = non_finite_centre_average<pass_direction::vertical, offset_space::image>(
+                        src, g, guide_center<T, G>(g, x + l, y), glm::vec<3, T>(0), glm::vec<3, T>(0), x + l, y, y, h,
+                        static_cast<std::size_t>(full[l]), T(1) / (T(2) * beta_px * beta_px), T(0), cos_threshold, cv[l]);
+                }
+            });
+    };
+    using one = std::integral_constant<std::size_t, 1>;
+    using two = std::integral_constant<std::size_t, 2>;
+    const auto column = [&](auto cols, std::size_t x0) {
+        std::size_t y = 0;
+        for (; y + 2 <= h; y += 2) step(cols, two{}, x0, y);
+        if (y < h) step(cols, one{}, x0, y);
+    };
+    for (std::size_t task = task_begin; task < task_end; ++task) {
+        const std::size_t x_begin = task * width, x_end = task + 1 == tasks ? w : x_begin + width;
+        std::size_t x0 = x_begin;
+        for (; x0 + C * N <= x_end; x0 += C * N) column(std::integral_constant<std::size_t, C>{}, x0);
+        for (; x0 < x_end; x0 += N) column(one{}, std::min(x0, x_end - N));
+    }
+}
+#endif
+
 #undef AAF_DETAIL_RESTRICT
 
 }  // namespace detail
@@ -1261,6 +1515,21 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
         if (workspace.frame.radius.size() < w * h) workspace.frame.radius.resize(w * h);
         frame = &workspace.frame;
     }
+#if AAF_SIMD_BYTES > 0
+    if (frame) {  // rows in small tasks (image_horizontal_rows), then columns of lanes walking the whole image
+        const std::size_t row_tasks = (h + image_rows_per_task - 1) / image_rows_per_task;
+        exec.parallel_for(row_tasks, [&](std::size_t b, std::size_t e) {
+            pool.lend([&](auto& ws) {
+                image_horizontal_rows<T>(visibility, scratch, filter_width, pixel_size, gi, s, *frame, decay, ws,
+                                         b * image_rows_per_task, std::min(h, e * image_rows_per_task));
+            });
+        });
+        exec.parallel_for(image_column_tasks<T>(w), [&](std::size_t b, std::size_t e) {
+            image_vertical_columns<T>(scratch, output, filter_width, pixel_size, gi, s, *frame, decay, b, e);
+        });
+        return;
+    }
+#endif
     exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
         pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, gi, light_normal, s, row(b), row(e), row_reach, decay, ws, frame); });
     });
