@@ -367,14 +367,14 @@ TEMPLATE_TEST_CASE("a sample plan gives generate_samples' bits for every pixel, 
             u.assign(plan.padded(), T(-1)), v.assign(plan.padded(), T(-1));
             for (std::uint32_t k = 0; k < 40; ++k) {
                 const aaf::sample_key key{k * 37U, k * 11U + 3U, k % 3U, k % 2U, k * 1000003U};
-                plan.generate(aaf::detail::key_hash(key), u.data(), v.data());
+                const auto [pu, pv] = plan.generate(aaf::detail::key_hash(key), u.data(), v.data());
                 const auto expected = samples<T>(p, key, n);
                 std::vector<glm::vec<2, T>> got(n);
-                for (std::uint32_t i = 0; i < n; ++i) got[i] = {u[i], v[i]};
+                for (std::uint32_t i = 0; i < n; ++i) got[i] = {pu[i], pv[i]};
                 INFO(aaf::to_string(p) << " n = " << n << " key " << k);
                 REQUIRE(identical(got, expected));
                 for (std::uint32_t i = n; i < plan.padded(); ++i) {
-                    const bool inside = u[i] >= T(0) && u[i] < T(1) && v[i] >= T(0) && v[i] < T(1);
+                    const bool inside = pu[i] >= T(0) && pu[i] < T(1) && pv[i] >= T(0) && pv[i] < T(1);
                     REQUIRE(inside);
                 }
             }

@@ -201,9 +201,7 @@ drawn_pixel<T> draw_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, cons
                           const light_sample_frame<T>& frame, double origin_offset, std::uint32_t seed, pixel_batch<T>& batch) {
     const std::uint32_t count = batch.plan.size(), padded = batch.plan.padded();
     batch.reserve_samples(padded);
-    const T* const su = batch.u.data();
-    const T* const sv = batch.v.data();
-    batch.plan.generate(seed, batch.u.data(), batch.v.data());
+    const auto [su, sv] = batch.plan.generate(seed, batch.u.data(), batch.v.data());
     // Offset the origin to the light's side of the surface (Wächter–Binder: no epsilon to tune).
     const glm::vec<3, T> origin = shadow_ray_origin(p, n, frame.center, origin_offset);
     // d1 from the same point the segments start at, so d2 = d1·(L − t)/L is exact (t, L are from `origin`).

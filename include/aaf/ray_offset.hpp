@@ -57,23 +57,22 @@ template <class T>
     // Floor: a point at the exact origin still moves by a normal (non-denormal) amount.
     constexpr T floor = std::numeric_limits<T>::min() / std::numeric_limits<T>::epsilon();
     const T fallback_step = C::int_scale * std::numeric_limits<T>::epsilon() * std::max(largest, floor);
+    // Each component's three cases are computed and one is selected, with no branch: a pixel's components
+    // take different cases from pixel to pixel (a coordinate near 0), which a branch would mispredict.
+    using U = std::make_unsigned_t<I>;
     glm::vec<3, T> out;
     for (int i = 0; i < 3; ++i) {
         const T pc = p[i];
         const T nc = n[i];
-        if (!std::isfinite(pc) || !std::isfinite(nc)) {
-            out[i] = pc;
-            continue;
-        }
-        if (std::abs(pc) < C::origin) {
-            out[i] = pc + fallback_step * nc;
-            continue;
-        }
+        const bool finite = std::isfinite(pc) && std::isfinite(nc);
+        const T near_origin = pc + fallback_step * nc;
         // Normals are unit vectors; clamping keeps a longer one (user data) at 256 ULPs instead of overflowing
-        // the float-to-integer conversion (undefined behaviour for |256·n_c| beyond the integer's range).
-        const auto of_i = static_cast<I>(C::int_scale * std::clamp(nc, T(-1), T(1)));
-        const I bits = std::bit_cast<I>(pc);
-        out[i] = std::bit_cast<T>(static_cast<I>(pc < T(0) ? bits - of_i : bits + of_i));
+        // the float-to-integer conversion (undefined behaviour for |256·n_c| beyond the integer's range, and
+        // for a non-finite n_c, which is replaced by 0 here since its result is not used).
+        const auto of_i = static_cast<I>(C::int_scale * std::clamp(finite ? nc : T(0), T(-1), T(1)));
+        const U bits = std::bit_cast<U>(pc);  // unsigned: wraps where a non-finite pc's (unused) move would overflow
+        const T moved = std::bit_cast<T>(pc < T(0) ? bits - static_cast<U>(of_i) : bits + static_cast<U>(of_i));
+        out[i] = !finite ? pc : std::abs(pc) < C::origin ? near_origin : moved;
     }
     return out;
 }

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -297,7 +298,33 @@ class sample_plan {
 public:
     /// Sets the plan up for `pattern` and `n` samples; nothing to do when it already is (allocates when n grows).
     void prepare(sample_pattern pattern, std::uint32_t n) {
-        if (ready_ && n == n_ && pattern == pattern_) return;
+        if (ready_ && n == n_ && pattern == pattern_) [[likely]]
+            return;
+        build(pattern, n);
+    }
+
+    [[nodiscard]] std::uint32_t size() const noexcept { return n_; }
+    /// size() rounded up to whole vectors: how many values generate writes.
+    [[nodiscard]] std::uint32_t padded() const noexcept { return padded_; }
+
+    /// The samples generate_samples gives the pixel whose key hashes to `seed` (key_hash): sample i is
+    /// (u[i], v[i]) for i < size() of the arrays returned, which are `u` and `v` or, for the regular grid (the
+    /// same points for every pixel), the plan's own; the padding lanes up to padded() hold points of [0, 1)²
+    /// that are no sample.
+    [[nodiscard]] std::pair<const T*, const T*> generate(std::uint32_t seed, T* __restrict u, T* __restrict v) const noexcept {
+        if (pattern_ == sample_pattern::regular_grid) return {u_.data(), v_.data()};
+        if (pattern_ == sample_pattern::low_discrepancy) {
+            const std::uint32_t sx = sobol_seed_x(seed), sy = sobol_seed_y(seed);
+            const std::uint32_t* dim1 = dim1_.data();
+            for (std::uint32_t i = 0; i < padded_; ++i) sobol_point<T>(i, dim1[i], sx, sy, u[i], v[i]);
+            return {u, v};
+        }
+        stratified(seed, u, v);
+        return {u, v};
+    }
+
+private:
+    void build(sample_pattern pattern, std::uint32_t n) {
         constexpr std::uint32_t lanes = sample_lanes<T>;
         pattern_ = pattern, n_ = n, padded_ = (n + lanes - 1) / lanes * lanes, ready_ = true;
         const std::size_t m = padded_;
@@ -337,23 +364,9 @@ public:
         }
     }
 
-    [[nodiscard]] std::uint32_t size() const noexcept { return n_; }
-    /// size() rounded up to whole vectors: how many values generate writes.
-    [[nodiscard]] std::uint32_t padded() const noexcept { return padded_; }
-
-    /// The samples generate_samples gives the pixel whose key hashes to `seed` (key_hash): sample i is
-    /// (u[i], v[i]) for i < size(); the padding lanes up to padded() get points of [0, 1)² that are no sample.
-    void generate(std::uint32_t seed, T* __restrict u, T* __restrict v) const noexcept {
-        if (pattern_ == sample_pattern::regular_grid) {
-            std::copy_n(u_.data(), padded_, u), std::copy_n(v_.data(), padded_, v);
-            return;
-        }
-        if (pattern_ == sample_pattern::low_discrepancy) {
-            const std::uint32_t sx = sobol_seed_x(seed), sy = sobol_seed_y(seed);
-            const std::uint32_t* dim1 = dim1_.data();
-            for (std::uint32_t i = 0; i < padded_; ++i) sobol_point<T>(i, dim1[i], sx, sy, u[i], v[i]);
-            return;
-        }
+    /// generate for the stratified pattern: the jitter hashes and the points in lanes, then generate_samples'
+    /// edge rule sample by sample where some lane came near its stratum's edge.
+    void stratified(std::uint32_t seed, T* __restrict u, T* __restrict v) const noexcept {
         const T *col = col_.data(), *inv_cols = inv_cols_.data(), *row_start = row_start_.data(), *row_height = row_height_.data();
         const T *cols_t = cols_t_.data(), *u_lo = u_lo_.data(), *u_hi = u_hi_.data(), *v_lo = v_lo_.data(), *v_hi = v_hi_.data();
         const T n_t = static_cast<T>(n_);
@@ -378,7 +391,6 @@ public:
         }
     }
 
-private:
     sample_pattern pattern_ = sample_pattern::stratified;
     std::uint32_t n_ = 0, padded_ = 0;
     bool ready_ = false;
