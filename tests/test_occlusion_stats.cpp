@@ -9,6 +9,7 @@
 #include <cstring>
 #include <limits>
 #include <random>
+#include <span>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -465,12 +466,23 @@ struct direction_bit_tracer {
     }
 };
 
+/// The same answers through the batched form (gather_occlusion then collects several pixels' segments).
+template <class T>
+struct direction_bit_batch_tracer {
+    void trace_batch(std::span<const aaf::shadow_segment<T>> segments, std::span<aaf::occluder_span<T>> out) const noexcept {
+        for (std::size_t i = 0; i < segments.size(); ++i) out[i] = direction_bit_tracer<T>{}.occluder_span(segments[i]);
+    }
+};
+
 }  // namespace
 
 TEMPLATE_TEST_CASE("gather_occlusion's vector loops give the bits of the one-sample-at-a-time definition", "[stats][gather]",
                    float, double) {
-    // prepare_pixel computes every sample's light point, weight and segment in arrays and drops the untraceable
-    // ones afterwards; the plain definition does one sample at a time with light_sample_frame::weight.
+    // draw_pixel computes every sample's light point, weight and segment in arrays (from a sample_plan shared
+    // by the pixels of one count) and drops the untraceable ones afterwards; the plain definition does one
+    // sample at a time with generate_samples and light_sample_frame::weight. Every pattern; one count for all
+    // pixels (more than one vector of lanes, not a multiple of any width), the initial pass's 9, and counts
+    // that change from pixel to pixel (an adaptive pass: the plan is set up again); a region off the origin.
     using T = TestType;
     using vec3 = glm::vec<3, T>;
     const std::size_t w = 23, h = 11;
@@ -485,45 +497,56 @@ TEMPLATE_TEST_CASE("gather_occlusion's vector loops give the bits of the one-sam
             if (x % 7 == 2) n = -n;  // some receivers face away from the light
             normals(x, y) = x % 11 == 4 ? vec3(0) : vec3(glm::normalize(n));  // and some have no orientation
         }
-    const aaf::gbuffer<T> gb{positions.cview(), normals.cview(), pixel_size.cview()};
+    aaf::image<std::uint32_t> varying(w, h);
+    for (std::size_t y = 0; y < h; ++y)
+        for (std::size_t x = 0; x < w; ++x) varying(x, y) = static_cast<std::uint32_t>((x * 7 + y * 3) % 41);  // 0 = skipped
+    aaf::gbuffer<T> gb{positions.cview(), normals.cview(), pixel_size.cview()};
+    gb.region = {5, 1000, 0, 0};
     for (const bool two_sided : {false, true}) {
         aaf::area_light<T> light{{T(0.4), T(1.5), T(0.2)}, {T(1), T(0), T(0)}, {T(0), T(0.3), T(1)}};
         light.two_sided = two_sided;
         for (const auto weighting : {aaf::light_weighting::uniform, aaf::light_weighting::gaussian, aaf::light_weighting::irradiance}) {
-            for (const auto pattern : {aaf::sample_pattern::stratified, aaf::sample_pattern::low_discrepancy}) {
-                aaf::sampling_settings s;
-                s.weighting = weighting;
-                s.pattern = pattern;
-                const std::uint32_t count = 37;  // more than one vector of lanes, not a multiple of any width
-                aaf::image<aaf::occlusion_stats<T>> stats(w, h, aaf::occlusion_stats<T>{});
-                aaf::gather_occlusion(gb, light, direction_bit_tracer<T>{}, s, 2, count, stats.view());
-                const aaf::light_sample_frame<T> frame(light, weighting);
-                std::vector<glm::vec<2, T>> uv(count);
-                for (std::size_t y = 0; y < h; ++y)
-                    for (std::size_t x = 0; x < w; ++x) {
-                        const vec3 p = positions(x, y), n = aaf::detail::receiver_normal(normals(x, y), p, frame.center);
-                        aaf::generate_samples<T>(pattern, aaf::pixel_key(gb.region, x, y, 2, s.light_index, s.frame_seed), uv);
-                        const vec3 origin = aaf::shadow_ray_origin(p, n, frame.center, s.origin_offset);
-                        const T d1 = std::abs(glm::dot(origin - light.corner, frame.normal));
-                        aaf::occlusion_stats<T> expected{};
-                        std::uint32_t skipped = 0;
-                        for (const auto& xi : uv) {
-                            const vec3 yl = light.point(xi.x, xi.y);
-                            const T wgt = frame.weight(n, yl - p, yl);
-                            const vec3 to = yl - origin;
-                            const T len = glm::length(to);
-                            if (!(wgt > T(0)) || !std::isfinite(wgt) || !(len > T(0)) || !std::isfinite(len)) {
-                                ++skipped;
-                                continue;
+            for (const auto pattern : {aaf::sample_pattern::stratified, aaf::sample_pattern::regular_grid,
+                                       aaf::sample_pattern::low_discrepancy}) {
+                for (const std::uint32_t fixed : {37u, 9u, 0u}) {  // 0: the per-pixel counts of `varying`
+                    aaf::sampling_settings s;
+                    s.weighting = weighting;
+                    s.pattern = pattern;
+                    s.frame_seed = 3;
+                    aaf::image<aaf::occlusion_stats<T>> stats(w, h, aaf::occlusion_stats<T>{}), batched(stats);
+                    const auto counts = fixed ? aaf::const_image_view<std::uint32_t>{} : varying.cview();
+                    aaf::gather_occlusion(gb, light, direction_bit_tracer<T>{}, s, 2, fixed, stats.view(), counts);
+                    aaf::gather_occlusion(gb, light, direction_bit_batch_tracer<T>{}, s, 2, fixed, batched.view(), counts);
+                    const aaf::light_sample_frame<T> frame(light, weighting);
+                    for (std::size_t y = 0; y < h; ++y)
+                        for (std::size_t x = 0; x < w; ++x) {
+                            const std::uint32_t count = fixed ? fixed : varying(x, y);
+                            std::vector<glm::vec<2, T>> uv(count);
+                            const vec3 p = positions(x, y), n = aaf::detail::receiver_normal(normals(x, y), p, frame.center);
+                            aaf::generate_samples<T>(pattern, aaf::pixel_key(gb.region, x, y, 2, s.light_index, s.frame_seed), uv);
+                            const vec3 origin = aaf::shadow_ray_origin(p, n, frame.center, s.origin_offset);
+                            const T d1 = std::abs(glm::dot(origin - light.corner, frame.normal));
+                            aaf::occlusion_stats<T> expected{};
+                            std::uint32_t skipped = 0;
+                            for (const auto& xi : uv) {
+                                const vec3 yl = light.point(xi.x, xi.y);
+                                const T wgt = frame.weight(n, yl - p, yl);
+                                const vec3 to = yl - origin;
+                                const T len = glm::length(to);
+                                if (!(wgt > T(0)) || !std::isfinite(wgt) || !(len > T(0)) || !std::isfinite(len)) {
+                                    ++skipped;
+                                    continue;
+                                }
+                                const aaf::shadow_segment<T> seg{origin, to * (T(1) / len), len};
+                                expected.add_sample(wgt, d1, len, aaf::detail::trace_one<T>(direction_bit_tracer<T>{}, seg));
                             }
-                            const aaf::shadow_segment<T> seg{origin, to * (T(1) / len), len};
-                            expected.add_sample(wgt, d1, len, aaf::detail::trace_one<T>(direction_bit_tracer<T>{}, seg));
+                            expected.samples += skipped;
+                            INFO("two_sided " << two_sided << " weighting " << static_cast<int>(weighting) << " pattern "
+                                              << aaf::to_string(pattern) << " count " << count << " pixel " << x << ", " << y);
+                            REQUIRE(same(stats(x, y), expected));
+                            REQUIRE(same(batched(x, y), expected));
                         }
-                        expected.samples += skipped;
-                        INFO("two_sided " << two_sided << " weighting " << static_cast<int>(weighting) << " pattern "
-                                          << aaf::to_string(pattern) << " pixel " << x << ", " << y);
-                        REQUIRE(same(stats(x, y), expected));
-                    }
+                }
             }
         }
     }

@@ -20,6 +20,8 @@
 
 #include <aaf/ray_offset.hpp>
 
+#include "reference/reference_ray_offset.hpp"
+
 namespace {
 
 template <class T>
@@ -177,4 +179,37 @@ TEST_CASE("a shadow ray from the offset point does not re-hit its own plane, at 
             ++total;
         }
     CHECK(in_front == total);
+}
+
+TEMPLATE_TEST_CASE("the branch-free offset gives the bits of the case-by-case definition", "[offset]", float, double) {
+    // offset_ray_origin selects among its three cases without branching (gather_occlusion calls it per pixel,
+    // and neighbouring pixels take different cases); the reference takes one branch per case.
+    using T = TestType;
+    using vec3 = glm::vec<3, T>;
+    const T inf = std::numeric_limits<T>::infinity(), nan = std::numeric_limits<T>::quiet_NaN();
+    const T big = std::numeric_limits<T>::max(), tiny = std::numeric_limits<T>::denorm_min();
+    const T specials[] = {T(0), -T(0), tiny, -tiny, T(1.0 / 32.0), -T(1.0 / 32.0), std::nextafter(T(1.0 / 32.0), T(0)),
+                          T(1), T(-1), T(0.5), T(-3), big, -big, inf, -inf, nan, T(1e-3), T(1e5)};
+    std::mt19937 rng(7u);
+    std::uniform_int_distribution<int> pick(0, static_cast<int>(std::size(specials)) - 1), mode(0, 3);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    const auto draw = [&](bool normal) {
+        vec3 v;
+        for (int i = 0; i < 3; ++i) {
+            const int m = mode(rng);
+            v[i] = m == 0 ? specials[pick(rng)]
+                   : m == 1 ? T(u(rng) * (normal ? 3.0 : 0.1))
+                   : m == 2 ? T(u(rng))
+                            : T(u(rng) * std::pow(10.0, static_cast<int>(u(rng) * 30)));
+        }
+        return v;
+    };
+    for (int k = 0; k < 200000; ++k) {
+        const vec3 p = draw(false), n = draw(true);
+        const vec3 got = aaf::offset_ray_origin(p, n), want = aaf_ref::offset_ray_origin(p, n);
+        bool same = true;
+        for (int i = 0; i < 3; ++i) same = same && std::bit_cast<int_of<T>>(got[i]) == std::bit_cast<int_of<T>>(want[i]);
+        INFO("p = " << p.x << ", " << p.y << ", " << p.z << "  n = " << n.x << ", " << n.y << ", " << n.z);
+        REQUIRE(same);
+    }
 }

@@ -348,3 +348,36 @@ TEST_CASE("a region's pixel key is the frame pixel's key", "[sampler][region]") 
     const auto other = samples<float>(aaf::sample_pattern::stratified, aaf::pixel_key(aaf::frame_region{}, 3, 5, 2, 1, 77), 9);
     CHECK(other != from_tile);
 }
+
+TEMPLATE_TEST_CASE("a sample plan gives generate_samples' bits for every pixel, and points in the unit square in its padding",
+                   "[sampler]", float, double) {
+    // gather_occlusion draws a pass's samples through detail::sample_plan: the per-(pattern, n) constants once,
+    // the per-pixel hashes in lanes. The plan is set up again whenever n or the pattern changes (an adaptive
+    // pass's counts differ from pixel to pixel), so the counts are visited in an order that switches back and forth.
+    using T = TestType;
+    const std::uint32_t counts[] = {9, 1, 2, 9, 3, 7, 16, 20, 37, 63, 64, 65, 100, 129, 9, 257};
+    aaf::detail::sample_plan<T> plan;
+    std::vector<T> u, v;
+    for (const std::uint32_t n : counts) {
+        for (const aaf::sample_pattern p : all_patterns) {
+            plan.prepare(p, n);
+            REQUIRE(plan.size() == n);
+            REQUIRE(plan.padded() >= n);
+            REQUIRE(plan.padded() % aaf::detail::sample_lanes<T> == 0);
+            u.assign(plan.padded(), T(-1)), v.assign(plan.padded(), T(-1));
+            for (std::uint32_t k = 0; k < 40; ++k) {
+                const aaf::sample_key key{k * 37U, k * 11U + 3U, k % 3U, k % 2U, k * 1000003U};
+                const auto [pu, pv] = plan.generate(aaf::detail::key_hash(key), u.data(), v.data());
+                const auto expected = samples<T>(p, key, n);
+                std::vector<glm::vec<2, T>> got(n);
+                for (std::uint32_t i = 0; i < n; ++i) got[i] = {pu[i], pv[i]};
+                INFO(aaf::to_string(p) << " n = " << n << " key " << k);
+                REQUIRE(identical(got, expected));
+                for (std::uint32_t i = n; i < plan.padded(); ++i) {
+                    const bool inside = pu[i] >= T(0) && pu[i] < T(1) && pv[i] >= T(0) && pv[i] < T(1);
+                    REQUIRE(inside);
+                }
+            }
+        }
+    }
+}

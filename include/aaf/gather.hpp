@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <string>
 #include <type_traits>
@@ -120,15 +121,18 @@ struct pixel_batch {
         std::size_t end;        // one past the pixel's last segment
         std::uint32_t skipped;  // samples drawn and counted but not traced (no weight)
     };
-    std::vector<glm::vec<2, T>> uv;
     std::vector<shadow_segment<T>> segments;
     std::vector<T> weights;
     std::vector<occluder_span<T>> hits;
     std::vector<visibility_hit> visible;  // visibility-only passes
     std::vector<pending> pixels;
-    // One pixel's per-sample directions, lengths and weights before the untraceable ones are dropped, one
-    // array per component so that prepare_pixel's arithmetic runs in vector lanes.
-    std::vector<T> dir_x, dir_y, dir_z, lengths, sample_weights;
+    // The pass's sample pattern for the current count (the same for every pixel of an initial pass).
+    sample_plan<T> plan;
+    // One pixel's samples (u, v), then its per-sample directions, lengths and weights before the untraceable
+    // ones are dropped, one array per component padded to whole vectors (plan.padded()), so that
+    // draw_pixel's arithmetic runs in vector lanes with no remainder loop.
+    std::vector<T> u, v, dir_x, dir_y, dir_z, lengths, sample_weights;
+    std::vector<std::uint32_t> keep;  // 1 where the sample can be traced
     trace_scratch<T> trace;
     std::size_t size = 0;                 // segments pending
 
@@ -136,18 +140,24 @@ struct pixel_batch {
         if (segments.size() >= n) return;  // grows a few times per thread, then reused
         segments.resize(n), weights.resize(n), hits.resize(n), visible.resize(n);
     }
+    void reserve_samples(std::size_t padded) {
+        if (lengths.size() >= padded) return;
+        for (auto* a : {&u, &v, &dir_x, &dir_y, &dir_z, &lengths, &sample_weights}) a->resize(padded);
+        keep.resize(padded);
+    }
 };
 
-/// prepare_pixel's per-sample arithmetic for the uniform weighting, in vector lanes: light point y,
-/// weight (light_sample_frame::weight's tests as 0/1 products: the loop body must be one block), the
-/// unnormalised segment y − origin and its squared length. Values, not references, and restrict-qualified
-/// arrays, so that nothing the loop reads can alias what it writes.
+/// draw_pixel's per-sample arithmetic for the uniform weighting, in vector lanes (`padded` is a whole
+/// number of vectors): light point y, weight (light_sample_frame::weight's tests as 0/1 products: the loop
+/// body must be one block), the unnormalised segment y − origin and its squared length. Values, not
+/// references, and restrict-qualified arrays, so that nothing the loop reads can alias what it writes.
 template <class T, bool TwoSided>
-void uniform_samples(const glm::vec<2, T>* __restrict uv, std::uint32_t count, area_light<T> light, glm::vec<3, T> p,
-                     glm::vec<3, T> n, glm::vec<3, T> light_normal, glm::vec<3, T> origin, T* __restrict to_x,
-                     T* __restrict to_y, T* __restrict to_z, T* __restrict length2, T* __restrict weight) noexcept {
-    for (std::uint32_t i = 0; i < count; ++i) {
-        const glm::vec<3, T> y = light.point(uv[i].x, uv[i].y);
+void uniform_samples(const T* __restrict su, const T* __restrict sv, std::uint32_t padded, area_light<T> light,
+                     glm::vec<3, T> p, glm::vec<3, T> n, glm::vec<3, T> light_normal, glm::vec<3, T> origin,
+                     T* __restrict to_x, T* __restrict to_y, T* __restrict to_z, T* __restrict length2,
+                     T* __restrict weight) noexcept {
+    for (std::uint32_t i = 0; i < padded; ++i) {
+        const glm::vec<3, T> y = light.point(su[i], sv[i]);
         const glm::vec<3, T> to_light = y - p;
         const T cos_r = glm::dot(n, to_light);
         const T cos_l = -glm::dot(light_normal, to_light);
@@ -158,58 +168,86 @@ void uniform_samples(const glm::vec<2, T>* __restrict uv, std::uint32_t count, a
     }
 }
 
-/// Draws `count` samples for a pixel and appends its segments to `batch` (traced by flush_batch).
-/// Every sample is computed first (branch-free for the uniform weighting, so the loop runs in vector lanes),
-/// then the ones that cannot be traced are dropped: the same values, per sample, as testing each in turn.
+/// draw_pixel's directions: (dx, dy, dz) divided by their length, and keep[i] = 1 where the sample can be
+/// traced (weight and length finite and positive), else 0. In vector lanes (restrict-qualified arrays).
 template <class T>
-void prepare_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const area_light<T>& light,
-                   const light_sample_frame<T>& frame, const sampling_settings& s, const sample_key& key,
-                   std::uint32_t count, occlusion_stats<T>& stats, pixel_batch<T>& batch) {
-    batch.uv.resize(count);
-    generate_samples<T>(s.pattern, key, batch.uv);
-    batch.reserve(batch.size + count);
-    if (batch.lengths.size() < count) {
-        for (auto* v : {&batch.dir_x, &batch.dir_y, &batch.dir_z, &batch.lengths, &batch.sample_weights}) v->resize(count);
+void normalize_samples(T* __restrict dx, T* __restrict dy, T* __restrict dz, const T* __restrict len, const T* __restrict wgt,
+                       std::uint32_t* __restrict keep, std::uint32_t padded) noexcept {
+    for (std::uint32_t i = 0; i < padded; ++i) {
+        const T inv = T(1) / len[i];  // one division, not three
+        dx[i] *= inv, dy[i] *= inv, dz[i] *= inv;
+        // As 0/1 values, with no branch: x <= max is false for NaN and ±inf.
+        keep[i] = static_cast<std::uint32_t>(wgt[i] > T(0)) & static_cast<std::uint32_t>(wgt[i] <= std::numeric_limits<T>::max()) &
+                  static_cast<std::uint32_t>(len[i] > T(0)) & static_cast<std::uint32_t>(len[i] <= std::numeric_limits<T>::max());
     }
+}
+
+/// A pixel's samples as draw_pixel leaves them in its batch's per-sample arrays.
+template <class T>
+struct drawn_pixel {
+    glm::vec<3, T> origin;  ///< where every segment starts (the receiver, offset)
+    T d1;                   ///< the receiver's distance to the light's plane, from `origin`
+    std::uint32_t count;    ///< samples drawn
+};
+
+/// Draws the samples of `batch.plan` (prepared for this pixel's count and the pass's pattern) for the pixel
+/// whose sample key hashes to `seed` (key_hash of its pixel_key): per sample i < count, the unit direction
+/// (batch.dir_x/y/z), length (batch.lengths) and weight (batch.sample_weights) of its segment, and
+/// batch.keep[i] = 1 where it can be traced. Every sample is computed (branch-free for the uniform weighting,
+/// so the loops run in vector lanes) before any is dropped: the same values, per sample, as
+/// generate_samples and testing each sample in turn.
+template <class T>
+drawn_pixel<T> draw_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const area_light<T>& light,
+                          const light_sample_frame<T>& frame, double origin_offset, std::uint32_t seed, pixel_batch<T>& batch) {
+    const std::uint32_t count = batch.plan.size(), padded = batch.plan.padded();
+    batch.reserve_samples(padded);
+    const auto [su, sv] = batch.plan.generate(seed, batch.u.data(), batch.v.data());
     // Offset the origin to the light's side of the surface (Wächter–Binder: no epsilon to tune).
-    const glm::vec<3, T> origin = shadow_ray_origin(p, n, frame.center, s.origin_offset);
+    const glm::vec<3, T> origin = shadow_ray_origin(p, n, frame.center, origin_offset);
     // d1 from the same point the segments start at, so d2 = d1·(L − t)/L is exact (t, L are from `origin`).
     const T d1 = std::abs(glm::dot(origin - light.corner, frame.normal));
-    const glm::vec<2, T>* uv = batch.uv.data();
     T* const dx = batch.dir_x.data();
     T* const dy = batch.dir_y.data();
     T* const dz = batch.dir_z.data();
     T* const len = batch.lengths.data();
     T* const wgt = batch.sample_weights.data();
     // Light point, weight and the unnormalised segment `to` (kept in dx, dy, dz) with its squared length.
-    const auto store_to = [&](std::uint32_t i, const glm::vec<3, T>& y) {
-        const glm::vec<3, T> to = y - origin;
-        dx[i] = to.x, dy[i] = to.y, dz[i] = to.z, len[i] = glm::dot(to, to);
-    };
     if (frame.weighting == light_weighting::uniform) {
-        if (frame.two_sided) uniform_samples<T, true>(uv, count, light, p, n, frame.normal, origin, dx, dy, dz, len, wgt);
-        else uniform_samples<T, false>(uv, count, light, p, n, frame.normal, origin, dx, dy, dz, len, wgt);
+        if (frame.two_sided) uniform_samples<T, true>(su, sv, padded, light, p, n, frame.normal, origin, dx, dy, dz, len, wgt);
+        else uniform_samples<T, false>(su, sv, padded, light, p, n, frame.normal, origin, dx, dy, dz, len, wgt);
     } else {
-        for (std::uint32_t i = 0; i < count; ++i) {
-            const glm::vec<3, T> y = light.point(uv[i].x, uv[i].y);
+        for (std::uint32_t i = 0; i < padded; ++i) {  // the padding lanes too: sqrt_each reads them
+            const glm::vec<3, T> y = light.point(su[i], sv[i]);
             wgt[i] = frame.weight(n, y - p, y);
-            store_to(i, y);
+            const glm::vec<3, T> to = y - origin;
+            dx[i] = to.x, dy[i] = to.y, dz[i] = to.z, len[i] = glm::dot(to, to);
         }
     }
-    sqrt_each(len, count);  // glm::length(to), in lanes
-    for (std::uint32_t i = 0; i < count; ++i) {
-        const T inv = T(1) / len[i];  // one division, not three
-        dx[i] *= inv, dy[i] *= inv, dz[i] *= inv;
-    }
+    sqrt_each(len, padded);  // glm::length(to), in lanes
+    normalize_samples(dx, dy, dz, len, wgt, batch.keep.data(), padded);
+    return {origin, d1, count};
+}
+
+/// Appends the traceable segments of the pixel draw_pixel left in `batch` to the batch's pending segments
+/// (traced by flush_batch).
+template <class T>
+void append_pixel(const drawn_pixel<T>& d, occlusion_stats<T>& stats, pixel_batch<T>& batch) {
+    batch.reserve(batch.size + d.count);
+    const T *dx = batch.dir_x.data(), *dy = batch.dir_y.data(), *dz = batch.dir_z.data();
+    const T *len = batch.lengths.data(), *wgt = batch.sample_weights.data();
+    const std::uint32_t* keep = batch.keep.data();
+    // Every sample is written at the next free place and only the traceable ones advance it (room for all
+    // of them was reserved), so the loop has no branch to mispredict.
     std::size_t traced = batch.size;
-    for (std::uint32_t i = 0; i < count; ++i) {
-        if (!(wgt[i] > T(0)) || !std::isfinite(wgt[i]) || !(len[i] > T(0)) || !std::isfinite(len[i])) continue;
-        batch.segments[traced] = {origin, {dx[i], dy[i], dz[i]}, len[i]};
-        batch.weights[traced] = wgt[i];
-        ++traced;
+    shadow_segment<T>* const segments = batch.segments.data();
+    T* const weights = batch.weights.data();
+    for (std::uint32_t i = 0; i < d.count; ++i) {
+        segments[traced] = {d.origin, {dx[i], dy[i], dz[i]}, len[i]};
+        weights[traced] = wgt[i];
+        traced += keep[i];
     }
-    const std::uint32_t skipped = count - static_cast<std::uint32_t>(traced - batch.size);
-    batch.pixels.push_back({&stats, d1, traced, skipped});
+    const std::uint32_t skipped = d.count - static_cast<std::uint32_t>(traced - batch.size);
+    batch.pixels.push_back({&stats, d.d1, traced, skipped});
     batch.size = traced;
 }
 
@@ -230,7 +268,7 @@ std::uint64_t flush_batch(const Tracer& tracer, pixel_batch<T>& batch) {
     }
     std::size_t i = 0;
     for (const auto& px : batch.pixels) {
-        occlusion_stats<T>& stats = *px.stats;
+        occlusion_stats<T> stats = *px.stats;  // in registers (trace_pixel)
         // Statistics do not depend on sample order, so traced samples are added first, skipped ones after.
         for (; i < px.end; ++i) {
             if constexpr (Query == shadow_query::visibility) {
@@ -241,10 +279,53 @@ std::uint64_t flush_batch(const Tracer& tracer, pixel_batch<T>& batch) {
             }
         }
         stats.samples += px.skipped;
+        *px.stats = stats;
     }
     batch.pixels.clear();
     batch.size = 0;
     return n;
+}
+
+/// For a tracer without a batched form of the query: traces the traceable samples of the pixel draw_pixel
+/// left in `batch` one at a time, each added to the pixel's statistics as it returns, with no array of
+/// segments or hits in between. The same calls in the same order, and the same statistics, as appending
+/// the pixel and flushing the batch. Returns the number of rays traced.
+template <shadow_query Query, class T, class Tracer>
+std::uint64_t trace_pixel(const Tracer& tracer, const drawn_pixel<T>& d, occlusion_stats<T>& out, pixel_batch<T>& batch) {
+    static_assert(!uses_batches<Tracer, T>(Query == shadow_query::visibility), "batched tracers go through flush_batch");
+    const T *dx = batch.dir_x.data(), *dy = batch.dir_y.data(), *dz = batch.dir_z.data();
+    const T *len = batch.lengths.data(), *wgt = batch.sample_weights.data();
+    const std::uint32_t* keep = batch.keep.data();
+    // A local copy, written back once: through the reference, every sample's sums would go through memory
+    // (the compiler cannot tell the weights' array from the record), a store-to-load chain per sample.
+    occlusion_stats<T> stats = out;
+    std::uint32_t traced = 0;
+    for (std::uint32_t i = 0; i < d.count; ++i) {
+        if (keep[i] == 0) continue;
+        ++traced;
+        const shadow_segment<T> segment{d.origin, {dx[i], dy[i], dz[i]}, len[i]};
+        if constexpr (Query == shadow_query::visibility) {
+            occluder_span<T> hit{};
+            visibility_hit visible = visibility_hit::visible;
+            trace_visibility<T>(tracer, std::span<const shadow_segment<T>>(&segment, 1), std::span<occluder_span<T>>(&hit, 1),
+                                std::span<visibility_hit>(&visible, 1), &batch.trace);
+            if (visible == visibility_hit::failed) ++stats.samples;  // dropped, as add_sample drops NaN hits
+            else stats.add_visibility_sample(wgt[i], visible == visibility_hit::blocked);
+        } else {
+            stats.add_sample(wgt[i], d.d1, len[i], trace_one<T>(tracer, segment));
+        }
+    }
+    stats.samples += d.count - traced;  // the skipped ones, counted after the traced ones as in flush_batch
+    out = stats;
+    return traced;
+}
+
+/// key_hash(pixel_key(region, x0 + k, y, pass, light, frame_seed)) for k < m, in vector lanes: the seeds of a
+/// run of pixels of one row (pixel_key's frame column wraps as x0 + k does).
+inline void pixel_key_hashes(const frame_region& region, std::size_t x0, std::size_t y, std::uint32_t m, std::uint32_t pass,
+                             std::uint32_t light, std::uint32_t frame_seed, std::uint32_t* __restrict out) noexcept {
+    const sample_key first = pixel_key(region, x0, y, pass, light, frame_seed);
+    for (std::uint32_t k = 0; k < m; ++k) out[k] = key_hash({first.x + k, first.y, first.pass, first.light, first.frame_seed});
 }
 
 }  // namespace detail
@@ -267,7 +348,7 @@ void require_gather_inputs(const char* fn, const gbuffer<T, Ids>& gb, const area
 }
 
 /// The one part of a frame compiled per tracer type: the rows' samples traced by `tracer`. Everything
-/// that does not call the tracer (checks, sample generation and segments: prepare_pixel) is compiled per
+/// that does not call the tracer (checks, sample generation and segments: draw_pixel, append_pixel) is compiled per
 /// pixel type only, and the executor is taken by reference (executor_ref).
 template <shadow_query Query, class T, class Ids, class Tracer>
 std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
@@ -280,24 +361,39 @@ std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_
     const light_sample_frame<T> frame(light, s.weighting);
     // A tracer with a batched form of this query gets whole pixels' segments, several pixels (of a row or
     // of the task's consecutive rows) per call, at least batch_rays of them when the task has that many.
-    const std::size_t batch_target = uses_batches<Tracer, T>(Query == shadow_query::visibility) ? s.batch_rays : 0;
+    // Any other tracer gets one call per segment as each pixel's samples are drawn (trace_pixel).
+    constexpr bool batched = uses_batches<Tracer, T>(Query == shadow_query::visibility);
+    [[maybe_unused]] const std::size_t batch_target = s.batch_rays;
     exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
         pixel_batch<T> batch;
         std::uint64_t local = 0;
+        constexpr std::uint32_t run = 64;  // pixels whose key hashes are computed together
+        std::uint32_t seeds[run];
         for (std::size_t y = y0; y < y1; ++y) {
-            for (std::size_t x = 0; x < w; ++x) {
-                const std::uint32_t count = sample_counts.empty() ? samples_per_pixel : sample_counts(x, y);
-                if (count == 0) continue;
-                const glm::vec<3, T> p = gb.positions(x, y);
-                const glm::vec<3, T> n = gb.normals(x, y);
-                if (!std::isfinite(p.x + p.y + p.z) || !std::isfinite(n.x + n.y + n.z)) continue;
-                const sample_key key = pixel_key(gb.region, x, y, pass, s.light_index, s.frame_seed);
-                prepare_pixel(p, receiver_normal(n, p, frame.center), light, frame, s, key, std::min(count, s.max_samples),
-                              stats(x, y), batch);
-                if (batch.size >= batch_target) local += flush_batch<Query>(tracer, batch);
+            for (std::size_t x0 = 0; x0 < w; x0 += run) {
+                const auto m = static_cast<std::uint32_t>(std::min<std::size_t>(run, w - x0));
+                pixel_key_hashes(gb.region, x0, y, m, pass, s.light_index, s.frame_seed, seeds);
+                for (std::uint32_t k = 0; k < m; ++k) {
+                    const std::size_t x = x0 + k;
+                    const std::uint32_t count = sample_counts.empty() ? samples_per_pixel : sample_counts(x, y);
+                    if (count == 0) continue;
+                    const glm::vec<3, T> p = gb.positions(x, y);
+                    const glm::vec<3, T> n = gb.normals(x, y);
+                    if (!std::isfinite(p.x + p.y + p.z) || !std::isfinite(n.x + n.y + n.z)) continue;
+                    batch.plan.prepare(s.pattern, std::min(count, s.max_samples));
+                    const drawn_pixel<T> d =
+                        draw_pixel(p, receiver_normal(n, p, frame.center), light, frame, s.origin_offset, seeds[k], batch);
+                    if constexpr (!batched) {
+                        local += trace_pixel<Query>(tracer, d, stats(x, y), batch);
+                    } else {
+                        append_pixel(d, stats(x, y), batch);
+                        if (batch.size >= batch_target) local += flush_batch<Query>(tracer, batch);
+                    }
+                }
             }
         }
-        if (!batch.pixels.empty()) local += flush_batch<Query>(tracer, batch);
+        if constexpr (batched)
+            if (!batch.pixels.empty()) local += flush_batch<Query>(tracer, batch);
         rays += local;
     });
     return rays.load();
@@ -342,7 +438,8 @@ std::uint64_t gather_visibility(const gbuffer<T, Ids>& gb, const area_light<T>& 
 // The compiled mode's instantiations (config.hpp: AAF_EXTERN_TEMPLATES): what a gathering pass does
 // besides calling the tracer.
 #define AAF_DETAIL_GATHER_INSTANTIATIONS(KEYWORD, T)                                                            \
-    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::prepare_pixel<T>)                                                   \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::draw_pixel<T>)                                                      \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::append_pixel<T>)                                                    \
     AAF_DETAIL_INSTANTIATE(KEYWORD, detail::require_gather_inputs<T, no_guide>)                                 \
     AAF_DETAIL_INSTANTIATE(KEYWORD, detail::require_gather_inputs<T, const_image_view<std::uint32_t>>)
 #ifdef AAF_EXTERN_TEMPLATES

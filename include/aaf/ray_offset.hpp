@@ -51,30 +51,35 @@ template <class T>
 [[nodiscard]] glm::vec<3, T> offset_ray_origin(const glm::vec<3, T>& p, const glm::vec<3, T>& n) noexcept {
     using C = detail::offset_constants<T>;
     using I = typename C::int_type;
-    T largest = T(0);
-    for (int i = 0; i < 3; ++i)
-        if (std::isfinite(p[i])) largest = std::max(largest, std::abs(p[i]));
+    // The components in four lanes (the fourth a copy of the first, never stored) and every case computed
+    // and selected per lane with no branch: the compiler runs each step on the three components at once, and
+    // neighbouring pixels, whose components take different cases, mispredict nothing.
+    using U = std::make_unsigned_t<I>;
+    T pc[4], nc[4], out4[4];
+    for (int i = 0; i < 4; ++i) pc[i] = p[i % 3], nc[i] = n[i % 3];
+    T mag[4];
+    bool finite[4];
+    for (int i = 0; i < 4; ++i) {
+        mag[i] = std::abs(pc[i]);
+        finite[i] = mag[i] <= std::numeric_limits<T>::max();  // std::isfinite(pc[i])
+        mag[i] = finite[i] ? mag[i] : T(0);
+    }
+    const T largest = std::max(std::max(mag[0], mag[1]), mag[2]);  // of the finite components, 0 if none
     // Floor: a point at the exact origin still moves by a normal (non-denormal) amount.
     constexpr T floor = std::numeric_limits<T>::min() / std::numeric_limits<T>::epsilon();
     const T fallback_step = C::int_scale * std::numeric_limits<T>::epsilon() * std::max(largest, floor);
-    glm::vec<3, T> out;
-    for (int i = 0; i < 3; ++i) {
-        const T pc = p[i];
-        const T nc = n[i];
-        if (!std::isfinite(pc) || !std::isfinite(nc)) {
-            out[i] = pc;
-            continue;
-        }
-        if (std::abs(pc) < C::origin) {
-            out[i] = pc + fallback_step * nc;
-            continue;
-        }
+    for (int i = 0; i < 4; ++i) {
+        const bool ok = finite[i] && std::abs(nc[i]) <= std::numeric_limits<T>::max();
+        const T near_origin = pc[i] + fallback_step * nc[i];
         // Normals are unit vectors; clamping keeps a longer one (user data) at 256 ULPs instead of overflowing
-        // the float-to-integer conversion (undefined behaviour for |256·n_c| beyond the integer's range).
-        const auto of_i = static_cast<I>(C::int_scale * std::clamp(nc, T(-1), T(1)));
-        const I bits = std::bit_cast<I>(pc);
-        out[i] = std::bit_cast<T>(static_cast<I>(pc < T(0) ? bits - of_i : bits + of_i));
+        // the float-to-integer conversion (undefined behaviour for |256·n_c| beyond the integer's range, and
+        // for a non-finite n_c, which is replaced by 0 here since its result is not used).
+        const auto of_i = static_cast<I>(C::int_scale * std::clamp(ok ? nc[i] : T(0), T(-1), T(1)));
+        const U bits = std::bit_cast<U>(pc[i]);  // unsigned: wraps where a non-finite pc's (unused) move would overflow
+        const T moved = std::bit_cast<T>(pc[i] < T(0) ? bits - static_cast<U>(of_i) : bits + static_cast<U>(of_i));
+        out4[i] = !ok ? pc[i] : mag[i] < C::origin ? near_origin : moved;
     }
+    const glm::vec<3, T> out(out4[0], out4[1], out4[2]);
     return out;
 }
 

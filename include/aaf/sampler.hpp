@@ -7,10 +7,13 @@
 #include <cstdint>
 #include <limits>
 #include <span>
+#include <utility>
+#include <vector>
 
 #include <glm/vec2.hpp>
 
 #include "config.hpp"
+#include "simd.hpp"
 
 namespace aaf {
 inline namespace v0 {
@@ -150,6 +153,64 @@ template <class T>
     return !(t > lo + margin && t < hi - margin);
 }
 
+
+/// The constants row `r` of the strata for n samples shares, its first cell being sample `first`: the
+/// row spans [row_first/n, row_end/n), its cell c [c/cols, (c + 1)/cols). Computed once per row (divisions
+/// included) by generate_samples and once per (n, row) by sample_plan, with the same expressions.
+template <class T>
+struct strata_row {
+    std::uint32_t cols = 1;
+    T inv_cols = 1, row_height = 1, row_start = 0, row_first = 0, row_end = 1, n_t = 1, cols_t = 1, u_margin = 0, v_margin = 0;
+};
+
+template <class T>
+[[nodiscard]] strata_row<T> make_strata_row(const strata_layout& s, std::uint32_t n, std::uint32_t r, std::uint32_t first) noexcept {
+    strata_row<T> row;
+    row.cols = s.base_cols + (r < s.rows_with_extra ? 1U : 0U);
+    row.row_height = static_cast<T>(row.cols) / static_cast<T>(n);
+    row.inv_cols = T(1) / static_cast<T>(row.cols);  // multiply per cell, divide once per row
+    row.row_first = static_cast<T>(first), row.row_end = static_cast<T>(first + row.cols), row.n_t = static_cast<T>(n);
+    row.cols_t = static_cast<T>(row.cols);
+    row.u_margin = T(16) * std::numeric_limits<T>::epsilon() * row.cols_t;
+    row.v_margin = T(16) * std::numeric_limits<T>::epsilon() * row.n_t;
+    row.row_start = row.row_first / row.n_t;  // not accumulated: its error stays within a few ulps for any n
+    return row;
+}
+
+/// A stratum's point from its jitter (jx, jy) in [0, 1)², before the edge check: cell `c_t` of a row with
+/// constants inv_cols, row_start and row_height (strata_row). The one expression of every caller.
+template <class T>
+[[nodiscard]] constexpr T stratum_u(T c_t, T jx, T inv_cols) noexcept { return (c_t + jx) * inv_cols; }
+template <class T>
+[[nodiscard]] constexpr T stratum_v(T jy, T row_start, T row_height) noexcept { return row_start + jy * row_height; }
+
+/// The jitter of stratified sample i of the pixel whose key hashes to `seed`.
+template <class T>
+constexpr void stratum_jitter(std::uint32_t seed, std::uint32_t i, T& jx, T& jy) noexcept {
+    const std::uint32_t h = hash_combine(seed, i);
+    jx = to_unit<T>(h);
+    jy = to_unit<T>(hash32(h ^ 0x68e31da4U));
+}
+
+/// The Owen scrambling seeds of the low-discrepancy pattern's two dimensions for a key hash.
+[[nodiscard]] constexpr std::uint32_t sobol_seed_x(std::uint32_t seed) noexcept { return hash32(seed ^ 0x63d83595U); }
+[[nodiscard]] constexpr std::uint32_t sobol_seed_y(std::uint32_t seed) noexcept { return hash32(seed ^ 0x0b4f3a5dU); }
+
+/// Sobol's second dimension of index i built reversed (its generator columns low bit first), as
+/// generate_samples' bit-plane loop builds it for many indices at once.
+[[nodiscard]] constexpr std::uint32_t sobol_dim1_reversed(std::uint32_t i) noexcept {
+    std::uint32_t r = 0, column = 1;
+    for (std::uint32_t b = 0; (i >> b) != 0; ++b, column ^= column << 1) r ^= column & (0U - ((i >> b) & 1U));
+    return r;
+}
+
+/// Low-discrepancy sample with index i (its reversed second dimension `dim1`) under scrambles sx, sy.
+template <class T>
+constexpr void sobol_point(std::uint32_t i, std::uint32_t dim1, std::uint32_t sx, std::uint32_t sy, T& u, T& v) noexcept {
+    u = to_unit<T>(reverse_bits(laine_karras(i, sx)));
+    v = to_unit<T>(reverse_bits(laine_karras(dim1, sy)));
+}
+
 }  // namespace detail
 
 /// Generates the light samples of one pixel in [0, 1)², to be mapped onto the light by
@@ -168,8 +229,7 @@ void generate_samples(sample_pattern pattern, const sample_key& key, std::span<g
     const std::uint32_t seed = detail::key_hash(key);
     constexpr std::uint32_t chunk = detail::sample_chunk;
     if (pattern == sample_pattern::low_discrepancy) {
-        const std::uint32_t sx = detail::hash32(seed ^ 0x63d83595U);
-        const std::uint32_t sy = detail::hash32(seed ^ 0x0b4f3a5dU);
+        const std::uint32_t sx = detail::sobol_seed_x(seed), sy = detail::sobol_seed_y(seed);
         // Owen scrambling of each dimension decorrelates pixels and keeps every power-of-two prefix a net.
         // The index is not shuffled (Burley's index scramble only matters when padding more dimensions), so
         // only the few bits of i < n enter Sobol's second dimension. owen_scramble(x) reverses x, scrambles
@@ -183,10 +243,8 @@ void generate_samples(sample_pattern pattern, const sample_key& key, std::span<g
             std::uint32_t column = 1;  // reversed generator column of bit b
             for (std::uint32_t b = 0; ((base + m - 1) >> b) != 0; ++b, column ^= column << 1)
                 for (std::uint32_t k = 0; k < m; ++k) dim1[k] ^= column & (0U - (((base + k) >> b) & 1U));
-            for (std::uint32_t k = 0; k < m; ++k) {  // in lanes: the scrambles write plain arrays
-                u[k] = detail::to_unit<T>(detail::reverse_bits(detail::laine_karras(base + k, sx)));
-                v[k] = detail::to_unit<T>(detail::reverse_bits(detail::laine_karras(dim1[k], sy)));
-            }
+            for (std::uint32_t k = 0; k < m; ++k)  // in lanes: the scrambles write plain arrays
+                detail::sobol_point<T>(base + k, dim1[k], sx, sy, u[k], v[k]);
             for (std::uint32_t k = 0; k < m; ++k) out[base + k] = {u[k], v[k]};
         }
         return;
@@ -197,44 +255,154 @@ void generate_samples(sample_pattern pattern, const sample_key& key, std::span<g
     const auto fill_jitter = [&](std::uint32_t first) {
         chunk_start = first;
         const std::uint32_t m = std::min(chunk, n - first);
-        for (std::uint32_t k = 0; k < m; ++k) {
-            const std::uint32_t h = detail::hash_combine(seed, first + k);
-            jitter_x[k] = detail::to_unit<T>(h);
-            jitter_y[k] = detail::to_unit<T>(detail::hash32(h ^ 0x68e31da4U));
-        }
+        for (std::uint32_t k = 0; k < m; ++k) detail::stratum_jitter<T>(seed, first + k, jitter_x[k], jitter_y[k]);
     };
     if (jittered) fill_jitter(0);
     const detail::strata_layout s = detail::make_strata(n);
     std::uint32_t i = 0;
     for (std::uint32_t r = 0; r < s.rows; ++r) {
-        const std::uint32_t cols = s.base_cols + (r < s.rows_with_extra ? 1U : 0U);
-        const T row_height = static_cast<T>(cols) / static_cast<T>(n);
-        const T inv_cols = T(1) / static_cast<T>(cols);  // multiply in the loop, divide once per row
-        // The row spans [row_first/n, row_end/n); cell c spans [c/cols, (c + 1)/cols).
-        const T row_first = static_cast<T>(i), row_end = static_cast<T>(i + cols), n_t = static_cast<T>(n);
-        const T cols_t = static_cast<T>(cols);
-        const T u_margin = T(16) * std::numeric_limits<T>::epsilon() * cols_t;
-        const T v_margin = T(16) * std::numeric_limits<T>::epsilon() * n_t;
-        const T row_start = row_first / n_t;  // not accumulated: its error stays within a few ulps for any n
-        for (std::uint32_t c = 0; c < cols; ++c, ++i) {
+        const detail::strata_row<T> row = detail::make_strata_row<T>(s, n, r, i);
+        for (std::uint32_t c = 0; c < row.cols; ++c, ++i) {
             T jx = T(0.5), jy = T(0.5);
             if (jittered) {
                 if (i - chunk_start == chunk) fill_jitter(i);
                 jx = jitter_x[i - chunk_start];
                 jy = jitter_y[i - chunk_start];
             }
-            T u = (static_cast<T>(c) + jx) * inv_cols;
-            T v = row_start + jy * row_height;
-            // Keep each point in its own half-open stratum (hence in [0, 1)²) even after rounding.
             const T c_t = static_cast<T>(c);
-            if (detail::near_stratum_edge(u, cols_t, c_t, c_t + T(1), u_margin)) [[unlikely]]
-                u = detail::nudge_into_stratum(u, cols_t, c_t, c_t + T(1));
-            if (detail::near_stratum_edge(v, n_t, row_first, row_end, v_margin)) [[unlikely]]
-                v = detail::nudge_into_stratum(v, n_t, row_first, row_end);
+            T u = detail::stratum_u(c_t, jx, row.inv_cols);
+            T v = detail::stratum_v(jy, row.row_start, row.row_height);
+            // Keep each point in its own half-open stratum (hence in [0, 1)²) even after rounding.
+            if (detail::near_stratum_edge(u, row.cols_t, c_t, c_t + T(1), row.u_margin)) [[unlikely]]
+                u = detail::nudge_into_stratum(u, row.cols_t, c_t, c_t + T(1));
+            if (detail::near_stratum_edge(v, row.n_t, row.row_first, row.row_end, row.v_margin)) [[unlikely]]
+                v = detail::nudge_into_stratum(v, row.n_t, row.row_first, row.row_end);
             out[i] = {u, v};
         }
     }
 }
+
+namespace detail {
+
+/// Values of T per vector (1 without explicit vectors): sample_plan pads a pixel's samples to whole vectors.
+template <class T>
+inline constexpr std::uint32_t sample_lanes = simd_bytes >= sizeof(T) ? static_cast<std::uint32_t>(simd_bytes / sizeof(T)) : 1U;
+
+/// What generate_samples computes per sample that does not depend on the pixel, kept for one (pattern, n)
+/// in arrays padded to whole vectors: the strata's row constants, the regular grid's points, Sobol's second
+/// dimension. A pass that draws n samples for every pixel then only does, per pixel, the steps that depend
+/// on its key (the hashes and scrambles), in lanes and without the per-pixel set-up (make_strata, a square
+/// root, divisions per row). The same expressions as generate_samples, so the same bits (test_sampler.cpp).
+template <class T>
+class sample_plan {
+public:
+    /// Sets the plan up for `pattern` and `n` samples; nothing to do when it already is (allocates when n grows).
+    void prepare(sample_pattern pattern, std::uint32_t n) {
+        if (ready_ && n == n_ && pattern == pattern_) [[likely]]
+            return;
+        build(pattern, n);
+    }
+
+    [[nodiscard]] std::uint32_t size() const noexcept { return n_; }
+    /// size() rounded up to whole vectors: how many values generate writes.
+    [[nodiscard]] std::uint32_t padded() const noexcept { return padded_; }
+
+    /// The samples generate_samples gives the pixel whose key hashes to `seed` (key_hash): sample i is
+    /// (u[i], v[i]) for i < size() of the arrays returned, which are `u` and `v` or, for the regular grid (the
+    /// same points for every pixel), the plan's own; the padding lanes up to padded() hold points of [0, 1)²
+    /// that are no sample.
+    [[nodiscard]] std::pair<const T*, const T*> generate(std::uint32_t seed, T* __restrict u, T* __restrict v) const noexcept {
+        if (pattern_ == sample_pattern::regular_grid) return {u_.data(), v_.data()};
+        if (pattern_ == sample_pattern::low_discrepancy) {
+            const std::uint32_t sx = sobol_seed_x(seed), sy = sobol_seed_y(seed);
+            const std::uint32_t* dim1 = dim1_.data();
+            for (std::uint32_t i = 0; i < padded_; ++i) sobol_point<T>(i, dim1[i], sx, sy, u[i], v[i]);
+            return {u, v};
+        }
+        stratified(seed, u, v);
+        return {u, v};
+    }
+
+private:
+    void build(sample_pattern pattern, std::uint32_t n) {
+        constexpr std::uint32_t lanes = sample_lanes<T>;
+        pattern_ = pattern, n_ = n, padded_ = (n + lanes - 1) / lanes * lanes, ready_ = true;
+        const std::size_t m = padded_;
+        if (n == 0) return;
+        if (pattern == sample_pattern::low_discrepancy) {
+            dim1_.resize(m);
+            for (std::uint32_t i = 0; i < padded_; ++i) dim1_[i] = sobol_dim1_reversed(i);
+            return;
+        }
+        if (pattern == sample_pattern::regular_grid) {  // the same points for every pixel: generate_samples' own
+            std::vector<glm::vec<2, T>> uv(n);
+            generate_samples<T>(pattern, sample_key{}, uv);
+            u_.resize(m), v_.resize(m);
+            for (std::uint32_t i = 0; i < padded_; ++i) u_[i] = uv[i < n ? i : 0].x, v_[i] = uv[i < n ? i : 0].y;
+            return;
+        }
+        for (auto* a : {&col_, &inv_cols_, &row_start_, &row_height_, &cols_t_, &u_lo_, &u_hi_, &v_lo_, &v_hi_}) a->resize(m);
+        row_of_.resize(m), rows_.clear();
+        const strata_layout s = make_strata(n);
+        std::uint32_t i = 0;
+        for (std::uint32_t r = 0; r < s.rows; ++r) {
+            rows_.push_back(make_strata_row<T>(s, n, r, i));
+            const strata_row<T>& row = rows_.back();
+            for (std::uint32_t c = 0; c < row.cols; ++c, ++i) {
+                const T c_t = static_cast<T>(c);
+                col_[i] = c_t, inv_cols_[i] = row.inv_cols, row_start_[i] = row.row_start, row_height_[i] = row.row_height;
+                // near_stratum_edge's bounds, lo + margin and hi − margin, computed as it computes them.
+                cols_t_[i] = row.cols_t, u_lo_[i] = c_t + row.u_margin, u_hi_[i] = (c_t + T(1)) - row.u_margin;
+                v_lo_[i] = row.row_first + row.v_margin, v_hi_[i] = row.row_end - row.v_margin;
+                row_of_[i] = r;
+            }
+        }
+        for (; i < padded_; ++i) {  // padding lanes: sample 0's constants (points in [0, 1)², never used)
+            col_[i] = col_[0], inv_cols_[i] = inv_cols_[0], row_start_[i] = row_start_[0], row_height_[i] = row_height_[0];
+            cols_t_[i] = cols_t_[0], u_lo_[i] = u_lo_[0], u_hi_[i] = u_hi_[0], v_lo_[i] = v_lo_[0], v_hi_[i] = v_hi_[0];
+            row_of_[i] = 0;
+        }
+    }
+
+    /// generate for the stratified pattern: the jitter hashes and the points in lanes, then generate_samples'
+    /// edge rule sample by sample where some lane came near its stratum's edge.
+    void stratified(std::uint32_t seed, T* __restrict u, T* __restrict v) const noexcept {
+        const T *col = col_.data(), *inv_cols = inv_cols_.data(), *row_start = row_start_.data(), *row_height = row_height_.data();
+        const T *cols_t = cols_t_.data(), *u_lo = u_lo_.data(), *u_hi = u_hi_.data(), *v_lo = v_lo_.data(), *v_hi = v_hi_.data();
+        const T n_t = static_cast<T>(n_);
+        std::uint32_t near = 0;  // some lane (padding included) is near its stratum's edge
+        for (std::uint32_t i = 0; i < padded_; ++i) {
+            T jx, jy;
+            stratum_jitter<T>(seed, i, jx, jy);
+            const T x = stratum_u(col[i], jx, inv_cols[i]), y = stratum_v(jy, row_start[i], row_height[i]);
+            u[i] = x, v[i] = y;
+            const T tu = x * cols_t[i], tv = y * n_t;  // near_stratum_edge's tests, as 0/1 values (no branch)
+            near |= 1U ^ (static_cast<std::uint32_t>(tu > u_lo[i]) & static_cast<std::uint32_t>(tu < u_hi[i]) &
+                          static_cast<std::uint32_t>(tv > v_lo[i]) & static_cast<std::uint32_t>(tv < v_hi[i]));
+        }
+        if (near == 0) [[likely]]
+            return;
+        for (std::uint32_t i = 0; i < n_; ++i) {  // generate_samples' edge rule, sample by sample
+            const strata_row<T>& row = rows_[row_of_[i]];
+            const T c_t = col[i];
+            if (near_stratum_edge(u[i], row.cols_t, c_t, c_t + T(1), row.u_margin)) u[i] = nudge_into_stratum(u[i], row.cols_t, c_t, c_t + T(1));
+            if (near_stratum_edge(v[i], row.n_t, row.row_first, row.row_end, row.v_margin))
+                v[i] = nudge_into_stratum(v[i], row.n_t, row.row_first, row.row_end);
+        }
+    }
+
+    sample_pattern pattern_ = sample_pattern::stratified;
+    std::uint32_t n_ = 0, padded_ = 0;
+    bool ready_ = false;
+    std::vector<T> u_, v_;                                                   // regular grid: the points
+    std::vector<std::uint32_t> dim1_;                                        // low discrepancy: reversed dimension 1
+    std::vector<T> col_, inv_cols_, row_start_, row_height_;                 // stratified: per sample, its row's
+    std::vector<T> cols_t_, u_lo_, u_hi_, v_lo_, v_hi_;                      // constants and edge bounds
+    std::vector<std::uint32_t> row_of_;
+    std::vector<strata_row<T>> rows_;
+};
+
+}  // namespace detail
 
 }  // namespace v0
 }  // namespace aaf
