@@ -562,16 +562,8 @@ template <class T, class V = T>
 }
 template <class T, class V>
 [[nodiscard]] V light_plane_weight(V exponent2) noexcept {
-    using U = std::conditional_t<sizeof(T) == 8, std::uint64_t, std::uint32_t>;
-#if AAF_SIMD_BYTES > 0
-    if constexpr (!std::is_same_v<V, T>) {
-        typedef U uvec __attribute__((vector_size(sizeof(V))));
-        return exp2_nonpositive<T, V, uvec>(exponent2);
-    } else
-#endif
-    {
-        return exponent2 >= exp2_lowest<T> ? exp2_nonpositive<T, V, U>(exponent2) : std::numeric_limits<T>::quiet_NaN();
-    }
+    if constexpr (!std::is_same_v<V, T>) return exp2_nonpositive<T>(exponent2);  // lanes: the mask drops taps
+    else return exponent2 >= exp2_lowest<T> ? exp2_nonpositive<T>(exponent2) : std::numeric_limits<T>::quiet_NaN();
 }
 /// Whether the lanes' exponents d²·scale are in exp2_nonpositive's domain (false for NaN).
 template <class T, class V>

@@ -21,6 +21,7 @@
 // no -ffast-math reassociation (aaf is not compiled with it).
 
 #include <bit>
+#include <cstddef>
 #include <cstdint>
 #include <type_traits>
 
@@ -29,6 +30,25 @@
 namespace aaf {
 inline namespace v0 {
 namespace detail {
+
+/// The unsigned integer of T's size, as a scalar when V is T and as a vector of V's width otherwise: the
+/// exponent-field arithmetic of exp2_nonpositive and exp_nonpositive.
+/// (Vectors only where simd.hpp has them: other compilers do not parse the vector attribute.)
+template <class T, class V>
+struct unsigned_lanes {
+    using scalar = std::conditional_t<sizeof(T) == 8, std::uint64_t, std::uint32_t>;
+#if AAF_SIMD_BYTES > 0
+    template <std::size_t Bytes>
+    struct vector_of {
+        typedef scalar type __attribute__((vector_size(Bytes)));
+    };
+    using type = typename std::conditional_t<std::is_same_v<V, T>, std::type_identity<scalar>, vector_of<sizeof(V)>>::type;
+#else
+    using type = scalar;
+#endif
+};
+template <class T, class V>
+using unsigned_lanes_t = typename unsigned_lanes<T, V>::type;
 
 /// The smallest x that exp2_nonpositive accepts: 2^x is then a normal number (so is every partial result).
 template <class T>
@@ -75,7 +95,7 @@ template <class T, class V>
 
 /// 2^x for x in [exp2_lowest<T>, 0], lane by lane (no check of the range: see above). `V` is T or a
 /// GCC/Clang vector of T; `U` the unsigned integer (or integer vector) of the same size.
-template <class T, class V, class U>
+template <class T, class V, class U = unsigned_lanes_t<T, V>>
 [[nodiscard]] inline V exp2_nonpositive(V x) noexcept {
     static_assert(std::is_floating_point_v<T> && sizeof(V) == sizeof(U));
     constexpr bool single = sizeof(T) == 4;
@@ -98,7 +118,7 @@ template <class T, class V, class U>
 /// product's rounding costs ≤ 0.2 ulp), times 2^n as 2^n1·2^(n−n1) with n1 = n/2 rounded, two normal
 /// powers: p·2^n1 is exact and ·2^(n−n1) rounds once. Within 2 ulp (tests/test_simd_exp.cpp), plus one
 /// subnormal step below the smallest normal result. `U` as for exp2_nonpositive.
-template <class T, class V, class U>
+template <class T, class V, class U = unsigned_lanes_t<T, V>>
 [[nodiscard]] inline V exp_nonpositive(V x) noexcept {
     static_assert(std::is_floating_point_v<T> && sizeof(V) == sizeof(U));
     constexpr bool single = sizeof(T) == 4;
@@ -124,21 +144,6 @@ template <class T, class V, class U>
     const U bias = std::bit_cast<U>(zero) + exponent_bias;  // unsigned arithmetic: wraps as two's complement
     const V y = (p * std::bit_cast<V>((n1 + bias) << mantissa_bits)) * std::bit_cast<V>((ni - n1 + bias) << mantissa_bits);
     return x < low ? zero : y;  // NaN stays NaN (r propagates it)
-}
-
-/// exp_nonpositive for a T or a simd<T>::vec, with the unsigned integer type of the same shape picked here.
-template <class T, class V>
-[[nodiscard]] inline V exp_nonpositive_of(V x) noexcept {
-    using U = std::conditional_t<sizeof(T) == 8, std::uint64_t, std::uint32_t>;
-#if AAF_SIMD_BYTES > 0
-    if constexpr (!std::is_same_v<V, T>) {
-        typedef U uvec __attribute__((vector_size(sizeof(V))));
-        return exp_nonpositive<T, V, uvec>(x);
-    } else
-#endif
-    {
-        return exp_nonpositive<T, V, U>(x);
-    }
 }
 
 }  // namespace detail

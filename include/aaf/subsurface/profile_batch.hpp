@@ -51,7 +51,7 @@ namespace subsurface {
             acc[c] = zero;
         }
         // e^x down to where std::exp gives 0 (−745.2), so no term that dipole::profile keeps is lost.
-        const auto exp_subnormal = [](V x) { return aaf::detail::exp_nonpositive_of<double>(x); };
+        const auto exp_subnormal = [](V x) { return aaf::detail::exp_nonpositive<double>(x); };
         for (; i + L <= n; i += L) {
             const V rv = S::load(r + i);
             const V r2 = rv * rv;
