@@ -251,6 +251,14 @@ void append_pixel(const drawn_pixel<T>& d, occlusion_stats<T>& stats, pixel_batc
     batch.size = traced;
 }
 
+/// Adds one traced visibility query to a pixel's statistics: a failed query is counted and dropped (as
+/// add_sample drops NaN hits), any other adds its visibility. The one rule for flush_batch and trace_pixel.
+template <class T>
+void record_visibility(occlusion_stats<T>& stats, T weight, visibility_hit visible) noexcept {
+    if (visible == visibility_hit::failed) ++stats.samples;
+    else stats.add_visibility_sample(weight, visible == visibility_hit::blocked);
+}
+
 /// Traces the batch's segments in one query (the tracer's batched form, or one call per segment) and adds
 /// each pixel's samples to its statistics, in the pixel's sample order: the same numbers whatever the
 /// batch holds. Returns the number of rays traced.
@@ -271,12 +279,10 @@ std::uint64_t flush_batch(const Tracer& tracer, pixel_batch<T>& batch) {
         occlusion_stats<T> stats = *px.stats;  // in registers (trace_pixel)
         // Statistics do not depend on sample order, so traced samples are added first, skipped ones after.
         for (; i < px.end; ++i) {
-            if constexpr (Query == shadow_query::visibility) {
-                if (batch.visible[i] == visibility_hit::failed) ++stats.samples;  // dropped, as add_sample drops NaN hits
-                else stats.add_visibility_sample(batch.weights[i], batch.visible[i] == visibility_hit::blocked);
-            } else {
+            if constexpr (Query == shadow_query::visibility)
+                record_visibility(stats, batch.weights[i], batch.visible[i]);
+            else
                 stats.add_sample(batch.weights[i], px.d1, batch.segments[i].length, batch.hits[i]);
-            }
         }
         stats.samples += px.skipped;
         *px.stats = stats;
@@ -309,8 +315,7 @@ std::uint64_t trace_pixel(const Tracer& tracer, const drawn_pixel<T>& d, occlusi
             visibility_hit visible = visibility_hit::visible;
             trace_visibility<T>(tracer, std::span<const shadow_segment<T>>(&segment, 1), std::span<occluder_span<T>>(&hit, 1),
                                 std::span<visibility_hit>(&visible, 1), &batch.trace);
-            if (visible == visibility_hit::failed) ++stats.samples;  // dropped, as add_sample drops NaN hits
-            else stats.add_visibility_sample(wgt[i], visible == visibility_hit::blocked);
+            record_visibility(stats, wgt[i], visible);
         } else {
             stats.add_sample(wgt[i], d.d1, len[i], trace_one<T>(tracer, segment));
         }
