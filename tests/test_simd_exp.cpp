@@ -149,3 +149,34 @@ TEMPLATE_TEST_CASE("simd_exp: the vector form computes the scalar form's bits in
     CHECK(differ == 0);
 }
 #endif
+
+// The image-space filter's m_1 = e^−a per pixel (exp_negated_as_std): the same bits as std::exp(−a) for
+// every a it can be given, whichever path (vector lanes with glibc, the scalar loop elsewhere) computes it.
+// A dense sample of all floats in [0, 104] (every 4099th bit pattern: ~270 000 values, each binade and the
+// near-midpoint cases the vector path hands to std::exp included), the ends of the range, non-finite and
+// negative a, and lanes without a kernel (0); odd lengths and offsets exercise the scalar remainder.
+TEMPLATE_TEST_CASE("simd_exp: exp_negated_as_std computes std::exp(-a)'s bits", "[filter][simd_exp]", float, double) {
+    using T = TestType;
+    constexpr T inf = std::numeric_limits<T>::infinity(), nan = std::numeric_limits<T>::quiet_NaN();
+    std::vector<T> a{T(0), T(-0.0), T(1e-30), T(0.5), T(86.999), T(87), T(87.001), T(87.5), T(103.9), T(104), T(110),
+                     T(745), T(-1), T(-0.25), inf, -inf, nan, std::numeric_limits<T>::denorm_min(),
+                     std::numeric_limits<T>::min()};
+    const auto top = std::bit_cast<std::uint32_t>(104.0f);
+    for (std::uint32_t b = 0; b <= top; b += 4099) a.push_back(static_cast<T>(std::bit_cast<float>(b)));
+    std::vector<T> full;  // a kernel (3) but every 7th lane without one (0), and a NaN radius (none either)
+    for (std::size_t i = 0; i < a.size(); ++i) full.push_back(i % 7 == 0 ? T(0) : i == 1 ? nan : T(3));
+    for (const std::size_t offset : {std::size_t{0}, std::size_t{3}}) {
+        const std::size_t n = a.size() - offset;
+        std::vector<T> got(n, T(-1));
+        aaf::detail::exp_negated_as_std<T>(n, full.data() + offset, a.data() + offset, got.data());
+        std::size_t wrong = 0, first = n;
+        for (std::size_t i = 0; i < n; ++i) {
+            const T want = full[offset + i] > T(0) ? std::exp(-a[offset + i]) : T(0);
+            const bool same = std::bit_cast<int_of<T>>(got[i]) == std::bit_cast<int_of<T>>(want);
+            if (!same && wrong++ == 0) first = i;
+        }
+        INFO("vector lanes: " << aaf::detail::exp_negated_vectors << "; first difference at a = "
+                              << (first < n ? a[offset + first] : T(0)));
+        CHECK(wrong == 0);
+    }
+}

@@ -21,8 +21,10 @@
 // no -ffast-math reassociation (aaf is not compiled with it).
 
 #include <bit>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <type_traits>
 
 #include "simd.hpp"
@@ -144,6 +146,88 @@ template <class T, class V, class U = unsigned_lanes_t<T, V>>
     const U bias = std::bit_cast<U>(zero) + exponent_bias;  // unsigned arithmetic: wraps as two's complement
     const V y = (p * std::bit_cast<V>((n1 + bias) << mantissa_bits)) * std::bit_cast<V>((ni - n1 + bias) << mantissa_bits);
     return x < low ? zero : y;  // NaN stays NaN (r propagates it)
+}
+
+/// Whether exp_negated_as_std computes float lanes in vectors: with 32- or 64-byte vectors, against glibc
+/// 2.27 or later, whose expf (the algorithm of ARM's optimized-routines, also musl's) is within 0.502 ulp
+/// of e^x (its source's measured bound; tests/test_simd_exp.cpp checks the agreement on this machine's
+/// libm, and every float in [0, 104] was checked once, docs/BENCHMARKS.md issue 14). Elsewhere (another
+/// libm, narrower vectors, double) the scalar std::exp loop runs.
+#if AAF_SIMD_BYTES >= 32 && defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 27))
+inline constexpr bool exp_negated_vectors = true;
+#else
+inline constexpr bool exp_negated_vectors = false;
+#endif
+
+/// out[i] = full[i] > 0 ? std::exp(−a[i]) : 0 for i in [0, n): the image-space filter's m_1 = e^−a per pixel
+/// (0 without a kernel), with the same bits as that scalar expression, which the per-pixel definition and
+/// the reference filters use. One std::exp call per pixel was a quarter of the horizontal pass (issue 14).
+/// Where exp_negated_vectors holds, float lanes compute e^−a in double instead: n = round(−a/ln 2), r = −a −
+/// n·ln 2 (ln 2 in two parts, Cody–Waite: |r| ≤ 0.347), e^r by its Taylor polynomial of degree 10
+/// (truncation below 2^−42 relative; with the rounding errors well below 2^−40), times 2^n. Rounding that
+/// double y to float gives the correctly rounded e^−a unless y lies within 2^−8 float ulp (2^21 units of
+/// y's last place) of a midpoint between two floats; and glibc's expf, within 0.502 ulp, returns the
+/// correctly rounded value whenever e^−a is more than 0.002 ulp from a midpoint. So outside that band the
+/// rounded y is std::exp's bits; lanes inside it (about 0.8 % of them), lanes with −a outside [−87, 0] (a
+/// result that may be subnormal, Inf or NaN inputs) call std::exp as before.
+template <class T>
+void exp_negated_as_std(std::size_t n, const T* full, const T* a, T* out) noexcept {
+    std::size_t i = 0;
+#if AAF_SIMD_BYTES >= 32
+    if constexpr (exp_negated_vectors && std::is_same_v<T, float>) {
+        constexpr std::size_t L = simd_bytes / 8;  // doubles per vector
+        typedef double vd __attribute__((vector_size(simd_bytes)));
+        typedef std::int64_t vi __attribute__((vector_size(simd_bytes)));
+        typedef float vf __attribute__((vector_size(simd_bytes / 2)));
+        constexpr double shift = 0x1.8p52;  // adding it rounds to an integer, held in the low bits
+        constexpr std::int64_t band = std::int64_t(1) << 21, midpoint = std::int64_t(1) << 28;
+        const std::size_t whole = n - n % L;  // (i + L <= n: GCC 12 warned of an overflow in the loop after it)
+        for (; i < whole; i += L) {
+            vf af, ff;
+            std::memcpy(&af, a + i, sizeof af);
+            std::memcpy(&ff, full + i, sizeof ff);
+            const vd x = -__builtin_convertvector(af, vd);  // exact
+            const vd t = x * 0x1.71547652b82fep0 + shift;   // 1/ln 2
+            const vd k = t - shift;
+            const vd r = (x - k * 0x1.62e42fee00000p-1) - k * 0x1.a39ef35793c76p-33;  // k·ln2_hi exact
+            vd p = vd{} + 1.0 / 3628800.0;
+            p = p * r + 1.0 / 362880.0;
+            p = p * r + 1.0 / 40320.0;
+            p = p * r + 1.0 / 5040.0;
+            p = p * r + 1.0 / 720.0;
+            p = p * r + 1.0 / 120.0;
+            p = p * r + 1.0 / 24.0;
+            p = p * r + 1.0 / 6.0;
+            p = p * r + 0.5;
+            p = p * r + 1.0;
+            p = p * r + 1.0;
+            // 2^k added to the exponent field (p in [0.7, 1.42], k in [−126, 0]: y is a normal double).
+            const vi y = std::bit_cast<vi>(p) + ((std::bit_cast<vi>(t) - std::bit_cast<vi>(vd{} + shift)) << 52);
+            // The 29 bits that rounding to float drops, relative to the midpoint pattern 1000…0.
+            const vi off = (y & (2 * midpoint - 1)) - midpoint;
+            const vi has = __builtin_convertvector(ff, vd) > 0.0;
+            const vi exact = (x >= -87.0) & (x <= 0.0) & ((off >= band) | (off <= -band));
+            const vi scalar = has & ~exact;
+            vf o = __builtin_convertvector(has ? std::bit_cast<vd>(y) : vd{}, vf);
+            // Whether any lane needs std::exp: one instruction on the vectors' ISA (the generic lane loop
+            // was scalarised by GCC 12).
+#if AAF_SIMD_BYTES == 64 && defined(__AVX512F__)
+            typedef long long v8di __attribute__((vector_size(64)));
+            const bool any = __builtin_ia32_ptestmq512(std::bit_cast<v8di>(scalar), std::bit_cast<v8di>(scalar), 0xff) != 0;
+#elif AAF_SIMD_BYTES == 32 && defined(__AVX__)
+            const bool any = __builtin_ia32_movmskpd256(std::bit_cast<vd>(scalar)) != 0;
+#else
+            bool any = false;
+            for (std::size_t l = 0; l < L; ++l) any = any | (scalar[l] != 0);
+#endif
+            if (any) [[unlikely]]
+                for (std::size_t l = 0; l < L; ++l)
+                    if (scalar[l]) o[l] = std::exp(-a[i + l]);
+            std::memcpy(out + i, &o, sizeof o);
+        }
+    }
+#endif
+    for (; i < n; ++i) out[i] = full[i] > T(0) ? std::exp(-a[i]) : T(0);
 }
 
 }  // namespace detail
