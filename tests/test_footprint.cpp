@@ -80,6 +80,29 @@ TEST_CASE("surface_footprint_axes: a plane tilted along both image axes has s_x 
     for (std::size_t i = 0; i < one.size(); ++i) CHECK(one.data()[i] == Approx(std::sqrt(sx.data()[i] * sy.data()[i])).epsilon(1e-5));
     aaf::surface_footprint<float>(p, n, size, one.view(), aaf::pixel_footprint::surface_max);
     for (std::size_t i = 0; i < one.size(); ++i) CHECK(one.data()[i] == Approx(std::max(sx.data()[i], sy.data()[i])).epsilon(1e-5));
+    // Projected on a light's plane first (light_axes): on the plane's own normal, the steps themselves; on
+    // the image plane (normal z), the x step (d, 0, −a d) becomes (d, 0, 0): d on both axes; on the plane of
+    // normal x, the x step keeps only its −a d: √3 d, and the y step (0, d, −b d) is unchanged: √2 d.
+    aaf::image<float> lx(w, h), ly(w, h);
+    aaf::surface_footprint_light_axes<float>(p, n, size, n(0, 0) * 3.0f, lx.view(), ly.view());
+    for (std::size_t i = 0; i < lx.size(); ++i) {
+        CHECK(lx.data()[i] == Approx(sx.data()[i]).epsilon(1e-5));
+        CHECK(ly.data()[i] == Approx(sy.data()[i]).epsilon(1e-5));
+    }
+    aaf::surface_footprint_light_axes<float>(p, n, size, glm::vec3(0, 0, -2), lx.view(), ly.view());
+    for (std::size_t i = 0; i < lx.size(); ++i) {
+        CHECK(lx.data()[i] == Approx(d).epsilon(1e-5));
+        CHECK(ly.data()[i] == Approx(d).epsilon(1e-5));
+    }
+    aaf::surface_footprint_light_axes<float>(p, n, size, glm::vec3(1, 0, 0), lx.view(), ly.view());
+    for (std::size_t i = 0; i < lx.size(); ++i) {
+        CHECK(lx.data()[i] == Approx(a * d).epsilon(1e-5));
+        CHECK(ly.data()[i] == Approx(std::sqrt(2.0f) * d).epsilon(1e-5));
+    }
+    CHECK_THROWS_WITH(aaf::surface_footprint_light_axes<float>(p, n, size, glm::vec3(0), lx.view(), ly.view()),
+                      Catch::Contains("light_normal"));
+    CHECK_THROWS_WITH(aaf::surface_footprint<float>(p, n, size, one.view(), aaf::pixel_footprint::light_axes),
+                      Catch::Contains("surface_footprint_light_axes"));
     // Each axis at least the camera's d, on its own: with d = 1.6·(2d) the horizontal step is clamped to it and
     // so is the vertical one; with d between the two steps only the shorter axis is.
     aaf::image<float> mid(w, h, 1.6f * d);

@@ -1450,8 +1450,8 @@ namespace detail {
 
 /// filter_visibility's work, compiled once per pixel type and guides whatever the caller's executor
 /// (executor_ref); the compiled mode instantiates it for the common guides (AAF_EXTERN_TEMPLATES).
-template <class T, class G>
 /// `pixel_size_vertical` (filter_visibility_axes; empty: `pixel_size`) is the vertical pass's footprint.
+template <class T, class G>
 void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> filter_width,
                             const_image_view<T> pixel_size, const_image_view<T> pixel_size_vertical, image_view<T> output,
                             image_view<T> scratch, filter_workspace<T>& workspace, const G& g, const filter_settings<T>& s,

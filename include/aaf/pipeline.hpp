@@ -247,13 +247,17 @@ frame_report render_frame_stages(const gbuffer<T, Ids>& gb, const area_light<T>&
     } else {
         // Tilt-aware widths: β over the pixel's footprint on its own surface instead of the camera's d.
         const_image_view<T> footprint = gb.pixel_size;
-        const bool axes = settings.filter.footprint == pixel_footprint::surface_axes;  // a footprint per pass
+        const bool axes = settings.filter.footprint == pixel_footprint::surface_axes || settings.filter.footprint == pixel_footprint::light_axes;  // a footprint per pass
         if (settings.filter.footprint != pixel_footprint::camera) {
             if (ws.footprint.width() != w || ws.footprint.height() != h) ws.footprint.reset(w, h);
             if (axes) {
                 if (ws.footprint_vertical.width() != w || ws.footprint_vertical.height() != h) ws.footprint_vertical.reset(w, h);
-                surface_footprint_axes<T>(gb.positions, gb.normals, gb.pixel_size, ws.footprint.view(), ws.footprint_vertical.view(),
-                                          settings.filter.normal_threshold_degrees, exec);
+                if (settings.filter.footprint == pixel_footprint::light_axes)
+                    surface_footprint_light_axes<T>(gb.positions, gb.normals, gb.pixel_size, light.normal(), ws.footprint.view(),
+                                                    ws.footprint_vertical.view(), settings.filter.normal_threshold_degrees, exec);
+                else
+                    surface_footprint_axes<T>(gb.positions, gb.normals, gb.pixel_size, ws.footprint.view(), ws.footprint_vertical.view(),
+                                              settings.filter.normal_threshold_degrees, exec);
             } else {
                 surface_footprint<T>(gb.positions, gb.normals, gb.pixel_size, ws.footprint.view(), settings.filter.footprint,
                                      settings.filter.normal_threshold_degrees, exec);
