@@ -1008,3 +1008,59 @@ TEMPLATE_TEST_CASE("filter: the lane-parallel passes equal a per-pixel evaluatio
     INFO("light plane, largest |fast - per-pixel with std::exp|: " << light_plane_std_exp_difference<TestType>());
     CHECK(light_plane_std_exp_difference<TestType>() <= light_plane_tolerance<TestType>);
 }
+
+namespace {
+/// filter_visibility_axes against the per-pixel definition with the horizontal pass on `dx` and the vertical
+/// pass on `dy` (its own radii and Gaussian), bit for bit: image space, and the light plane with the library's exp.
+template <class T, class G>
+void check_axes_against_per_pixel(const padded_frame<T>& f, const std::vector<T>& dy_data, const G& g,
+                                  const aaf::filter_settings<T>& s, const glm::vec<3, T>& ln) {
+    const auto vis = f.view(f.vis), beta = f.view(f.beta), dx = f.view(f.d), dy = f.view(dy_data);
+    aaf::image<T> out(f.w, f.h), scratch(f.w, f.h), h_expected(f.w, f.h), v_expected(f.w, f.h);
+    aaf::filter_workspace<T> ws;
+    aaf::thread_pool pool(2);
+    aaf::filter_visibility_axes<T>(vis, beta, dx, dy, out.view(), scratch.view(), ws, g, s, ln, pool);
+    const glm::vec<3, T> unit = ln / glm::length(ln);
+    const bool light_plane = s.space != aaf::offset_space::image;
+    per_pixel_pass<true, T>(vis, h_expected.view(), beta, dx, g, unit, s, light_plane);
+    per_pixel_pass<false, T>(h_expected.cview(), v_expected.view(), beta, dy, g, unit, s, light_plane);
+    CHECK(same_bits(scratch, h_expected));
+    CHECK(same_bits(out, v_expected));
+    // The same workspace again with one footprint for both axes: filter_visibility's bits.
+    aaf::image<T> one(f.w, f.h), both(f.w, f.h);
+    aaf::filter_visibility<T>(vis, beta, dy, one.view(), scratch.view(), ws, g, s, ln, pool);
+    aaf::filter_visibility_axes<T>(vis, beta, dy, dy, both.view(), scratch.view(), ws, g, s, ln);
+    CHECK(same_bits(one, both));
+}
+}  // namespace
+
+TEMPLATE_TEST_CASE("filter_visibility_axes: each pass with its own footprint equals the per-pixel definition bit for bit",
+                   "[filter][tilt]", float, double) {
+    using T = TestType;
+    for (std::uint64_t seed = 1; seed <= 12; ++seed) {
+        aaf_ref::rng r(seed * 31 + 5);
+        const std::size_t w = 1 + r.below(140), h = 1 + r.below(110), pad = r.below(3);
+        const bool bad = r.uniform() < 0.6;
+        const padded_frame<T> f = random_padded_frame<T>(seed * 13 + 3, w, h, pad, r.uniform() < 0.2 ? 40.0 : 8.0, bad);
+        // The vertical footprint: the horizontal one stretched by 1–4 (a tilted surface), or shrunk to a
+        // half (wider vertical kernels than horizontal ones: the vertical pass's reach is its own), with
+        // zero and NaN footprints of its own where `bad`.
+        std::vector<T> dy(f.d.size());
+        for (std::size_t i = 0; i < dy.size(); ++i) {
+            dy[i] = f.d[i] * T(r.below(4) == 0 ? 0.5 : r.uniform(1.0, 4.0));
+            if (bad && r.below(40) == 0) dy[i] = r.below(2) ? T(0) : std::numeric_limits<T>::quiet_NaN();
+        }
+        aaf::filter_settings<T> s;
+        s.max_radius = r.below(5) == 0 ? 50u : 24u;
+        s.normal_threshold_degrees = T(10 + 30 * r.uniform());
+        const glm::vec<3, T> ln{T(0.1), T(1), T(0.2 * r.uniform())};
+        const auto N = f.view(f.n), P = f.view(f.p);
+        const auto I = f.view(f.id);
+        INFO("seed " << seed << ", " << w << "x" << h << " pad " << pad << (bad ? ", non-finite inputs" : ""));
+        for (const auto space : {aaf::offset_space::image, aaf::offset_space::light_plane}) {
+            s.space = space;
+            check_axes_against_per_pixel(f, dy, aaf::guides{N, I, P}, s, ln);
+            check_axes_against_per_pixel(f, dy, aaf::guides<aaf::no_guide, aaf::no_guide, decltype(P)>{{}, {}, P}, s, ln);
+        }
+    }
+}

@@ -130,7 +130,9 @@ json aaf_settings_json(const aaf_variant& v, const std::string& description) {
     j["offsets"] = fs.filter.space == aaf::offset_space::light_plane ? "light_plane" : "image";
     j["footprint"] = fs.filter.footprint == aaf::pixel_footprint::camera         ? "camera"
                      : fs.filter.footprint == aaf::pixel_footprint::surface_area ? "surface_area"
-                                                                                 : "surface_max";
+                     : fs.filter.footprint == aaf::pixel_footprint::surface_max  ? "surface_max"
+                     : fs.filter.footprint == aaf::pixel_footprint::surface_axes ? "surface_axes (s_x horizontal, s_y vertical)"
+                                                                                 : "light_axes (s_x, s_y projected on the light's plane)";
     if (fs.filter.footprint != aaf::pixel_footprint::camera) j["footprint_min_stretch"] = fs.filter.footprint_min_stretch;
     j["light_profile"] = fs.formulas.light == aaf::light_profile::box ? "box (beta's light term uses sigma/sqrt 3)" : "gaussian";
     json guides = json::array();
@@ -239,6 +241,22 @@ method_family shadow_methods() {
         aaf_method("aaf_box_tilt_ld", "aaf",
                    {.footprint = aaf::pixel_footprint::surface_area, .light = aaf::light_profile::box, .pattern = aaf::sample_pattern::low_discrepancy},
                    "aaf_box_tilt with Owen-scrambled Sobol' light samples"),
+        aaf_method("aaf_axes", "aaf", {.footprint = aaf::pixel_footprint::surface_axes},
+                   "as aaf_adaptive with per-axis tilt-aware widths: beta/s_x horizontally, beta/s_y vertically (surface_axes)"),
+        aaf_method("aaf_axes_box", "aaf", {.footprint = aaf::pixel_footprint::surface_axes, .light = aaf::light_profile::box},
+                   "aaf_axes with the box-matched width (light_profile::box)"),
+        aaf_method("aaf_axes_ld", "aaf", {.footprint = aaf::pixel_footprint::surface_axes, .pattern = aaf::sample_pattern::low_discrepancy},
+                   "aaf_axes with Owen-scrambled Sobol' light samples"),
+        aaf_method("aaf_axes_box_ld", "aaf",
+                   {.footprint = aaf::pixel_footprint::surface_axes, .light = aaf::light_profile::box, .pattern = aaf::sample_pattern::low_discrepancy},
+                   "aaf_axes_box with Owen-scrambled Sobol' light samples"),
+        aaf_method("aaf_laxes", "aaf", {.footprint = aaf::pixel_footprint::light_axes},
+                   "as aaf_axes with the per-axis steps projected on the light's plane (light_axes)"),
+        aaf_method("aaf_laxes_ld", "aaf", {.footprint = aaf::pixel_footprint::light_axes, .pattern = aaf::sample_pattern::low_discrepancy},
+                   "aaf_laxes with Owen-scrambled Sobol' light samples"),
+        aaf_method("aaf_laxes_box_ld", "aaf",
+                   {.footprint = aaf::pixel_footprint::light_axes, .light = aaf::light_profile::box, .pattern = aaf::sample_pattern::low_discrepancy},
+                   "aaf_laxes with the box-matched width and Owen-scrambled Sobol' light samples"),
         aaf_method("aaf_lp_box", "aaf", {.space = offset_space::light_plane, .light = aaf::light_profile::box},
                    "aaf_light_plane with the box-matched width (light_profile::box)"),
         aaf_method("aaf_lp_box_ld", "aaf",

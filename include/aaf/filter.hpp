@@ -1416,6 +1416,29 @@ void image_vertical_columns(const_image_view<T> src, image_view<T> dst, const_im
 }
 #endif
 
+/// Per-axis footprints (filter_visibility_axes), between the passes of rows [y_begin, y_end): the vertical
+/// pass's own kernel radii from β and its footprint `pixel_size` (row_radii, the horizontal pass's rule) —
+/// each row's reach and, in image space, each pixel's m_1 = exp(−a) in `decay` and its radius in
+/// `frame_radius` (either may be null) — written where the vertical pass reads the horizontal pass's, so
+/// the vertical pass runs unchanged (and the horizontal pass's are no longer needed then).
+template <class T>
+void vertical_pass_radii(const_image_view<T> beta, const_image_view<T> pixel_size, const filter_settings<T>& s,
+                         std::size_t y_begin, std::size_t y_end, std::size_t* row_reach, T* decay, T* frame_radius,
+                         lane_state<T>& st) noexcept {
+    const std::size_t w = beta.width();
+    for (std::size_t y = y_begin; y < y_end; ++y) {
+        const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
+        const T* AAF_DETAIL_RESTRICT full = st.full_radius.data();
+        row_reach[y] = largest_radius(full, w);
+        if (frame_radius) std::copy_n(full, w, frame_radius + y * w);
+        if (decay)  // a = 1/(2(β/d)²) and m_1 as image_lanes and the horizontal pass compute them
+            for (std::size_t x = 0; x < w; ++x) {
+                const T beta_px = bw[x] / dw[x];
+                decay[y * w + x] = full[x] > T(0) ? std::exp(-(T(1) / (T(2) * beta_px * beta_px))) : T(0);
+            }
+    }
+}
+
 #undef AAF_DETAIL_RESTRICT
 
 }  // namespace detail
@@ -1440,16 +1463,20 @@ namespace detail {
 
 /// filter_visibility's work, compiled once per pixel type and guides whatever the caller's executor
 /// (executor_ref); the compiled mode instantiates it for the common guides (AAF_EXTERN_TEMPLATES).
+/// `pixel_size_vertical` (filter_visibility_axes; empty: `pixel_size`) is the vertical pass's footprint.
 template <class T, class G>
 void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> filter_width,
-                            const_image_view<T> pixel_size, image_view<T> output, image_view<T> scratch,
-                            filter_workspace<T>& workspace, const G& g, const filter_settings<T>& s,
+                            const_image_view<T> pixel_size, const_image_view<T> pixel_size_vertical, image_view<T> output,
+                            image_view<T> scratch, filter_workspace<T>& workspace, const G& g, const filter_settings<T>& s,
                             const glm::vec<3, T>& light_normal, executor_ref exec) {
-    constexpr const char* fn = "filter_visibility";
+    const bool per_axis = !pixel_size_vertical.empty();
+    const char* fn = per_axis ? "filter_visibility_axes" : "filter_visibility";
     require_nonempty(fn, "visibility", visibility);
     const std::size_t w = visibility.width(), h = visibility.height();
     require_size(fn, "filter_width", filter_width, w, h);
-    require_size(fn, "pixel_size", pixel_size, w, h);
+    require_size(fn, per_axis ? "pixel_size_horizontal" : "pixel_size", pixel_size, w, h);
+    if (per_axis) require_size(fn, "pixel_size_vertical", pixel_size_vertical, w, h);
+    const const_image_view<T> pixel_size_v = per_axis ? pixel_size_vertical : pixel_size;
     require_size(fn, "output", output, w, h);
     require_size(fn, "scratch", scratch, w, h);
     require_guides(fn, g, w, h);
@@ -1465,6 +1492,13 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
     if (workspace.row_reach.size() < h) workspace.row_reach.resize(h);
     std::size_t* row_reach = workspace.row_reach.data();
     workspace_pool<T> pool(w, workspace.passes);
+    // Per-axis footprints: after the horizontal pass, the vertical pass's own radii (vertical_pass_radii).
+    const auto vertical_radii = [&](T* decay, T* frame_radius) {
+        if (!per_axis) return;
+        exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
+            pool.lend([&](auto& ws) { vertical_pass_radii<T>(filter_width, pixel_size_v, s, row(b), row(e), row_reach, decay, frame_radius, ws.st); });
+        });
+    };
     if (s.space == offset_space::tangent_plane) {
         if constexpr (!G::has_positions || !G::has_normals) {
             throw_invalid(fn, "`settings.space` is tangent_plane but `guides.positions` or `guides.normals` is absent");
@@ -1473,8 +1507,9 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
                 pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, space, T>(visibility, scratch, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
             });
+            vertical_radii(nullptr, nullptr);
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, space, T>(scratch, output, filter_width, pixel_size, g, light_normal, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
+                pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, space, T>(scratch, output, filter_width, pixel_size_v, g, light_normal, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws); });
             });
             return;
         }
@@ -1500,8 +1535,9 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
                 pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws, frame); });
             });
+            vertical_radii(nullptr, nullptr);
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-                pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws, frame); });
+                pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::light_plane, T>(scratch, output, filter_width, pixel_size_v, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws, frame); });
             });
             return;
         }
@@ -1529,8 +1565,9 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
                                          b * image_rows_per_task, std::min(h, e * image_rows_per_task));
             });
         });
+        vertical_radii(decay, frame->radius.data());
         exec.parallel_for(image_column_tasks<T>(w), [&](std::size_t b, std::size_t e) {
-            image_vertical_columns<T>(scratch, output, filter_width, pixel_size, gi, s, *frame, decay, b, e);
+            image_vertical_columns<T>(scratch, output, filter_width, pixel_size_v, gi, s, *frame, decay, b, e);
         });
         return;
     }
@@ -1538,8 +1575,9 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
     exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
         pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::image, T>(visibility, scratch, filter_width, pixel_size, gi, light_normal, s, row(b), row(e), row_reach, decay, ws, frame); });
     });
+    vertical_radii(decay, frame ? frame->radius.data() : nullptr);
     exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
-        pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size, gi, light_normal, s, row(b), row(e), row_reach, decay, ws, frame); });
+        pool.lend([&](auto& ws) { filter_pass<pass_direction::vertical, offset_space::image, T>(scratch, output, filter_width, pixel_size_v, gi, light_normal, s, row(b), row(e), row_reach, decay, ws, frame); });
     });
 }
 
@@ -1568,8 +1606,27 @@ void filter_visibility(std::type_identity_t<const_image_view<T>> visibility,
                        std::type_identity_t<image_view<T>> scratch, filter_workspace<T>& workspace, const G& g = {},
                        const std::type_identity_t<filter_settings<T>>& s = {},
                        const std::type_identity_t<glm::vec<3, T>>& light_normal = {0, 1, 0}, Exec&& exec = {}) {
-    detail::filter_visibility_impl<T, G>(visibility, filter_width, pixel_size, output, scratch, workspace, g, s, light_normal,
-                                         detail::executor_ref(exec));
+    detail::filter_visibility_impl<T, G>(visibility, filter_width, pixel_size, const_image_view<T>{}, output, scratch, workspace,
+                                         g, s, light_normal, detail::executor_ref(exec));
+}
+
+/// filter_visibility with a footprint per axis (pixel_footprint::surface_axes, surface_footprint_axes): the
+/// horizontal pass uses β/`pixel_size_horizontal` pixels and the vertical pass β/`pixel_size_vertical`,
+/// each pass's kernel radius and Gaussian from its own width; everything else as filter_visibility. With
+/// the same view for both it computes filter_visibility's bits.
+template <class T, class G = guides<>, class Exec = sequential_executor>
+    requires detail::is_guides<G>::value
+void filter_visibility_axes(std::type_identity_t<const_image_view<T>> visibility,
+                            std::type_identity_t<const_image_view<T>> filter_width,
+                            std::type_identity_t<const_image_view<T>> pixel_size_horizontal,
+                            std::type_identity_t<const_image_view<T>> pixel_size_vertical, image_view<T> output,
+                            std::type_identity_t<image_view<T>> scratch, filter_workspace<T>& workspace, const G& g = {},
+                            const std::type_identity_t<filter_settings<T>>& s = {},
+                            const std::type_identity_t<glm::vec<3, T>>& light_normal = {0, 1, 0}, Exec&& exec = {}) {
+    if (pixel_size_vertical.empty())  // empty would mean "the horizontal footprint" inside
+        detail::throw_invalid("filter_visibility_axes", "`pixel_size_vertical` is empty");
+    detail::filter_visibility_impl<T, G>(visibility, filter_width, pixel_size_horizontal, pixel_size_vertical, output, scratch,
+                                         workspace, g, s, light_normal, detail::executor_ref(exec));
 }
 
 /// The same with working memory allocated for this call and freed on return (no global or thread-local

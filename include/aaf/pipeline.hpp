@@ -53,6 +53,7 @@ struct frame_workspace {
     image<T> filtered;
     image<T> scratch;
     image<T> footprint;                      ///< the filter's pixel footprint (filter_settings::footprint other than camera)
+    image<T> footprint_vertical;             ///< the vertical pass's footprint (pixel_footprint::surface_axes only)
     filter_workspace<T> filter;              ///< the filter's working memory (internal)
 
     void resize(std::size_t w, std::size_t h) {
@@ -66,6 +67,7 @@ struct frame_workspace {
         filtered.reset(w, h);
         scratch.reset(w, h);
         footprint = {};
+        footprint_vertical = {};
     }
 };
 
@@ -245,22 +247,41 @@ frame_report render_frame_stages(const gbuffer<T, Ids>& gb, const area_light<T>&
     } else {
         // Tilt-aware widths: β over the pixel's footprint on its own surface instead of the camera's d.
         const_image_view<T> footprint = gb.pixel_size;
+        const bool axes = settings.filter.footprint == pixel_footprint::surface_axes || settings.filter.footprint == pixel_footprint::light_axes;  // a footprint per pass
         if (settings.filter.footprint != pixel_footprint::camera) {
             if (ws.footprint.width() != w || ws.footprint.height() != h) ws.footprint.reset(w, h);
-            surface_footprint<T>(gb.positions, gb.normals, gb.pixel_size, ws.footprint.view(), settings.filter.footprint,
-                                 settings.filter.normal_threshold_degrees, exec);
-            // Only pixels stretched by at least footprint_min_stretch keep their surface footprint (issue 13).
+            if (axes) {
+                if (ws.footprint_vertical.width() != w || ws.footprint_vertical.height() != h) ws.footprint_vertical.reset(w, h);
+                if (settings.filter.footprint == pixel_footprint::light_axes)
+                    surface_footprint_light_axes<T>(gb.positions, gb.normals, gb.pixel_size, light.normal(), ws.footprint.view(),
+                                                    ws.footprint_vertical.view(), settings.filter.normal_threshold_degrees, exec);
+                else
+                    surface_footprint_axes<T>(gb.positions, gb.normals, gb.pixel_size, ws.footprint.view(), ws.footprint_vertical.view(),
+                                              settings.filter.normal_threshold_degrees, exec);
+            } else {
+                surface_footprint<T>(gb.positions, gb.normals, gb.pixel_size, ws.footprint.view(), settings.filter.footprint,
+                                     settings.filter.normal_threshold_degrees, exec);
+            }
+            // Only pixels stretched by at least footprint_min_stretch keep their surface footprint (issue 13);
+            // per axis, each axis by its own stretch.
             if (const T t = settings.filter.footprint_min_stretch; t > T(1))
                 exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
                     for (std::size_t y = y0; y < y1; ++y)
-                        for (std::size_t x = 0; x < w; ++x)
+                        for (std::size_t x = 0; x < w; ++x) {
                             if (!(ws.footprint(x, y) >= t * gb.pixel_size(x, y))) ws.footprint(x, y) = gb.pixel_size(x, y);
+                            if (axes && !(ws.footprint_vertical(x, y) >= t * gb.pixel_size(x, y)))
+                                ws.footprint_vertical(x, y) = gb.pixel_size(x, y);
+                        }
                 });
             footprint = ws.footprint.cview();
         }
         guides<const_image_view<glm::vec<3, T>>, Ids, no_guide> g{gb.normals, gb.ids, {}};
-        filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), footprint, ws.filtered.view(),
-                             ws.scratch.view(), ws.filter, g, settings.filter, light.normal(), exec);
+        if (axes)
+            filter_visibility_axes<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), footprint, ws.footprint_vertical.cview(),
+                                      ws.filtered.view(), ws.scratch.view(), ws.filter, g, settings.filter, light.normal(), exec);
+        else
+            filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), footprint, ws.filtered.view(),
+                                 ws.scratch.view(), ws.filter, g, settings.filter, light.normal(), exec);
     }
     report.filter_ms = ms_since(t0);
     if (!progress(0.95)) return report.cancelled = true, report;

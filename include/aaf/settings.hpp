@@ -99,6 +99,12 @@ enum class pixel_footprint {
     /// the tilt, so the kernel narrows by √cos θ there instead of over-blurring (tilt-aware widths)
     surface_area,
     surface_max,   ///< max(s_x, s_y): the footprint's longer side (narrower still; never over-blurs either axis)
+    /// s_x for the horizontal pass and s_y for the vertical pass: each pass narrows by its own axis's
+    /// stretch (a wall receding along x keeps its full width along y; surface_footprint_axes)
+    surface_axes,
+    /// surface_axes with each step projected on the light's plane first (surface_footprint_light_axes): the
+    /// distance light-plane offsets measure, per axis, never below d
+    light_axes,
 };
 
 /// The separable Gaussian filter and the slope-spreading pass.
@@ -206,7 +212,8 @@ void validate(const filter_settings<T>& s, const char* function = "validate") {
                 "must be in (0, 180] (got " + std::to_string(s.normal_threshold_degrees) + ")");
     if (!(s.spread_radius <= 1024))
         require(false, function, "settings.filter.spread_radius", "must be <= 1024 (got " + std::to_string(s.spread_radius) + ")");
-    if (!(s.footprint == pixel_footprint::camera || s.footprint == pixel_footprint::surface_area || s.footprint == pixel_footprint::surface_max))
+    if (!(s.footprint == pixel_footprint::camera || s.footprint == pixel_footprint::surface_area || s.footprint == pixel_footprint::surface_max ||
+          s.footprint == pixel_footprint::surface_axes || s.footprint == pixel_footprint::light_axes))
         require(false, function, "settings.filter.footprint", "must be a pixel_footprint (got " + std::to_string(static_cast<int>(s.footprint)) + ")");
     if (!(s.footprint_min_stretch >= T(1) && s.footprint_min_stretch <= std::numeric_limits<T>::max()))
         require(false, function, "settings.filter.footprint_min_stretch",
