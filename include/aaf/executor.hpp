@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <concepts>
 #include <condition_variable>
 #include <cstddef>
@@ -46,6 +47,11 @@ struct sequential_executor {
 /// `parallel_for` hands out chunks of `grain` items through an atomic counter, so rows of uneven cost
 /// balance. One `parallel_for` runs at a time per pool (concurrent callers are serialised); calling it
 /// from inside a body of the same pool deadlocks, so don't.
+/// Between calls the threads wait for work by polling for up to `spin_time` before they block on a
+/// condition variable, and the caller polls as long for the last chunks to finish: a frame's stages are
+/// consecutive `parallel_for` calls a few microseconds apart, and waking a blocked thread (a futex wake,
+/// an inter-processor interrupt, in a VM a hypervisor exit) took tens of microseconds each time, a
+/// serial part of every call (issue 14: spread_slopes's passes are a few milliseconds each).
 class thread_pool {
 public:
     /// `threads` = total threads including the caller; 0 = std::thread::hardware_concurrency().
@@ -76,6 +82,11 @@ public:
 
     [[nodiscard]] std::size_t size() const noexcept { return workers_.size() + (caller_works_ ? 1 : 0); }
 
+    /// How long an idle thread polls for the next call (and the caller for the last chunks) before it
+    /// blocks: long enough to bridge the gap between a frame's consecutive calls, short enough that an
+    /// idle pool costs no CPU time to speak of.
+    static constexpr std::chrono::microseconds spin_time{100};
+
     template <class Body>
     void parallel_for(std::size_t count, Body&& body) {
         if (count == 0) return;
@@ -87,13 +98,14 @@ public:
             count_ = count;
             next_.store(0);
             error_ = nullptr;
-            busy_ = workers_.size();
-            ++generation_;
+            busy_.store(workers_.size());
+            generation_.store(generation_.load() + 1);
         }
         wake_.notify_all();
         if (caller_works_) run_chunks();
+        spin([this] { return busy_.load() == 0; });
         std::unique_lock lock(mutex_);
-        done_.wait(lock, [this] { return busy_ == 0; });
+        done_.wait(lock, [this] { return busy_.load() == 0; });
         job_ = nullptr;
         if (error_) std::rethrow_exception(error_);
     }
@@ -122,14 +134,31 @@ private:
         }
     }
 
+    /// Polls `ready` for up to spin_time (the caller then blocks on a condition variable if it is still
+    /// false). The clock is read every 64 polls; the pause instruction lets a sibling hyperthread run.
+    template <class Ready>
+    static void spin(Ready&& ready) noexcept {
+        const auto until = std::chrono::steady_clock::now() + spin_time;
+        for (;;) {
+            for (int i = 0; i < 64; ++i) {
+                if (ready()) return;
+#if defined(__x86_64__) || defined(__i386__)
+                __builtin_ia32_pause();
+#endif
+            }
+            if (std::chrono::steady_clock::now() >= until) return;
+        }
+    }
+
     void worker_loop() {
         std::size_t seen = 0;
         for (;;) {
+            spin([&] { return generation_.load() != seen; });
             {
                 std::unique_lock lock(mutex_);
-                wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
+                wake_.wait(lock, [&] { return stop_ || generation_.load() != seen; });
                 if (stop_) return;
-                seen = generation_;
+                seen = generation_.load();
             }
             run_chunks();
             {
@@ -151,8 +180,8 @@ private:
     std::size_t count_ = 0;
     std::atomic<std::size_t> next_{0};
     std::exception_ptr error_;
-    std::size_t busy_ = 0;
-    std::size_t generation_ = 0;
+    std::atomic<std::size_t> busy_{0};        // written under mutex_, polled without it (spin)
+    std::atomic<std::size_t> generation_{0};  // likewise
     bool stop_ = false;
 };
 
