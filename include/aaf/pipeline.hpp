@@ -135,6 +135,59 @@ using frame_gather = function_ref<std::uint64_t(shadow_query query, std::uint32_
                                                 image_view<occlusion_stats<T>> stats,
                                                 const_image_view<std::uint32_t> sample_counts)>;
 
+/// Step 5 of render_frame, also progressive_shadow's filter: ws.raw_visibility (widths ws.filter_width)
+/// filtered into ws.filtered with normals always and IDs when the G-buffer has them, in light-plane offsets
+/// or image-space widths over the camera's d or the pixels' surface footprints (fs.footprint, one for both
+/// passes or one per pass, kept only where stretched by fs.footprint_min_stretch).
+template <class T, class Ids>
+void filter_frame_visibility(const gbuffer<T, Ids>& gb, const area_light<T>& light, frame_workspace<T>& ws,
+                             const filter_settings<T>& fs, executor_ref exec) {
+    const std::size_t w = gb.width(), h = gb.height();
+    if (fs.space == offset_space::light_plane) {
+        guides<const_image_view<glm::vec<3, T>>, Ids, const_image_view<glm::vec<3, T>>> g{gb.normals, gb.ids, gb.positions};
+        filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), gb.pixel_size, ws.filtered.view(),
+                             ws.scratch.view(), ws.filter, g, fs, light.normal(), exec);
+    } else {
+        // Tilt-aware widths: β over the pixel's footprint on its own surface instead of the camera's d.
+        const_image_view<T> footprint = gb.pixel_size;
+        const bool axes = fs.footprint == pixel_footprint::surface_axes || fs.footprint == pixel_footprint::light_axes;  // a footprint per pass
+        if (fs.footprint != pixel_footprint::camera) {
+            if (ws.footprint.width() != w || ws.footprint.height() != h) ws.footprint.reset(w, h);
+            if (axes) {
+                if (ws.footprint_vertical.width() != w || ws.footprint_vertical.height() != h) ws.footprint_vertical.reset(w, h);
+                if (fs.footprint == pixel_footprint::light_axes)
+                    surface_footprint_light_axes<T>(gb.positions, gb.normals, gb.pixel_size, light.normal(), ws.footprint.view(),
+                                                    ws.footprint_vertical.view(), fs.normal_threshold_degrees, exec);
+                else
+                    surface_footprint_axes<T>(gb.positions, gb.normals, gb.pixel_size, ws.footprint.view(), ws.footprint_vertical.view(),
+                                              fs.normal_threshold_degrees, exec);
+            } else {
+                surface_footprint<T>(gb.positions, gb.normals, gb.pixel_size, ws.footprint.view(), fs.footprint,
+                                     fs.normal_threshold_degrees, exec);
+            }
+            // Only pixels stretched by at least footprint_min_stretch keep their surface footprint (issue 13);
+            // per axis, each axis by its own stretch.
+            if (const T t = fs.footprint_min_stretch; t > T(1))
+                exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+                    for (std::size_t y = y0; y < y1; ++y)
+                        for (std::size_t x = 0; x < w; ++x) {
+                            if (!(ws.footprint(x, y) >= t * gb.pixel_size(x, y))) ws.footprint(x, y) = gb.pixel_size(x, y);
+                            if (axes && !(ws.footprint_vertical(x, y) >= t * gb.pixel_size(x, y)))
+                                ws.footprint_vertical(x, y) = gb.pixel_size(x, y);
+                        }
+                });
+            footprint = ws.footprint.cview();
+        }
+        guides<const_image_view<glm::vec<3, T>>, Ids, no_guide> g{gb.normals, gb.ids, {}};
+        if (axes)
+            filter_visibility_axes<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), footprint, ws.footprint_vertical.cview(),
+                                      ws.filtered.view(), ws.scratch.view(), ws.filter, g, fs, light.normal(), exec);
+        else
+            filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), footprint, ws.filtered.view(),
+                                 ws.scratch.view(), ws.filter, g, fs, light.normal(), exec);
+    }
+}
+
 /// render_frame's stages. Only `gather` calls the tracer, so all of this is compiled once per pixel type and
 /// G-buffer type, whatever the tracer, executor and progress callback (the compiled mode, aaf::compiled,
 /// holds it for float and double, with and without IDs).
@@ -240,49 +293,7 @@ frame_report render_frame_stages(const gbuffer<T, Ids>& gb, const area_light<T>&
 
     // 5. Filter, with normals always and IDs when the G-buffer has them.
     t0 = clock::now();
-    if (settings.filter.space == offset_space::light_plane) {
-        guides<const_image_view<glm::vec<3, T>>, Ids, const_image_view<glm::vec<3, T>>> g{gb.normals, gb.ids, gb.positions};
-        filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), gb.pixel_size, ws.filtered.view(),
-                             ws.scratch.view(), ws.filter, g, settings.filter, light.normal(), exec);
-    } else {
-        // Tilt-aware widths: β over the pixel's footprint on its own surface instead of the camera's d.
-        const_image_view<T> footprint = gb.pixel_size;
-        const bool axes = settings.filter.footprint == pixel_footprint::surface_axes || settings.filter.footprint == pixel_footprint::light_axes;  // a footprint per pass
-        if (settings.filter.footprint != pixel_footprint::camera) {
-            if (ws.footprint.width() != w || ws.footprint.height() != h) ws.footprint.reset(w, h);
-            if (axes) {
-                if (ws.footprint_vertical.width() != w || ws.footprint_vertical.height() != h) ws.footprint_vertical.reset(w, h);
-                if (settings.filter.footprint == pixel_footprint::light_axes)
-                    surface_footprint_light_axes<T>(gb.positions, gb.normals, gb.pixel_size, light.normal(), ws.footprint.view(),
-                                                    ws.footprint_vertical.view(), settings.filter.normal_threshold_degrees, exec);
-                else
-                    surface_footprint_axes<T>(gb.positions, gb.normals, gb.pixel_size, ws.footprint.view(), ws.footprint_vertical.view(),
-                                              settings.filter.normal_threshold_degrees, exec);
-            } else {
-                surface_footprint<T>(gb.positions, gb.normals, gb.pixel_size, ws.footprint.view(), settings.filter.footprint,
-                                     settings.filter.normal_threshold_degrees, exec);
-            }
-            // Only pixels stretched by at least footprint_min_stretch keep their surface footprint (issue 13);
-            // per axis, each axis by its own stretch.
-            if (const T t = settings.filter.footprint_min_stretch; t > T(1))
-                exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
-                    for (std::size_t y = y0; y < y1; ++y)
-                        for (std::size_t x = 0; x < w; ++x) {
-                            if (!(ws.footprint(x, y) >= t * gb.pixel_size(x, y))) ws.footprint(x, y) = gb.pixel_size(x, y);
-                            if (axes && !(ws.footprint_vertical(x, y) >= t * gb.pixel_size(x, y)))
-                                ws.footprint_vertical(x, y) = gb.pixel_size(x, y);
-                        }
-                });
-            footprint = ws.footprint.cview();
-        }
-        guides<const_image_view<glm::vec<3, T>>, Ids, no_guide> g{gb.normals, gb.ids, {}};
-        if (axes)
-            filter_visibility_axes<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), footprint, ws.footprint_vertical.cview(),
-                                      ws.filtered.view(), ws.scratch.view(), ws.filter, g, settings.filter, light.normal(), exec);
-        else
-            filter_visibility<T>(ws.raw_visibility.cview(), ws.filter_width.cview(), footprint, ws.filtered.view(),
-                                 ws.scratch.view(), ws.filter, g, settings.filter, light.normal(), exec);
-    }
+    filter_frame_visibility<T, Ids>(gb, light, ws, settings.filter, exec);
     report.filter_ms = ms_since(t0);
     if (!progress(0.95)) return report.cancelled = true, report;
 

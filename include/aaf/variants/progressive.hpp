@@ -150,38 +150,7 @@ public:
         report.formulas_ms = detail::ms_since(t0);
 
         t0 = clock::now();
-        if (settings.frame.filter.space == offset_space::light_plane) {
-            guides<const_image_view<glm::vec<3, T>>, Ids, const_image_view<glm::vec<3, T>>> g{gb.normals, gb.ids, gb.positions};
-            filter_visibility<T>(ws_.raw_visibility.cview(), ws_.filter_width.cview(), gb.pixel_size, ws_.filtered.view(),
-                                 ws_.scratch.view(), g, settings.frame.filter, light.normal(), exec);
-        } else {
-            const_image_view<T> footprint = gb.pixel_size;  // tilt-aware widths, as render_frame
-            const bool axes = settings.frame.filter.footprint == pixel_footprint::surface_axes || settings.frame.filter.footprint == pixel_footprint::light_axes;
-            if (settings.frame.filter.footprint != pixel_footprint::camera) {
-                if (ws_.footprint.width() != w || ws_.footprint.height() != h) ws_.footprint.reset(w, h);
-                if (axes) {
-                    if (ws_.footprint_vertical.width() != w || ws_.footprint_vertical.height() != h) ws_.footprint_vertical.reset(w, h);
-                    if (settings.frame.filter.footprint == pixel_footprint::light_axes)
-                        surface_footprint_light_axes<T>(gb.positions, gb.normals, gb.pixel_size, light.normal(), ws_.footprint.view(),
-                                                        ws_.footprint_vertical.view(), settings.frame.filter.normal_threshold_degrees, exec);
-                    else
-                        surface_footprint_axes<T>(gb.positions, gb.normals, gb.pixel_size, ws_.footprint.view(),
-                                                  ws_.footprint_vertical.view(), settings.frame.filter.normal_threshold_degrees, exec);
-                } else {
-                    surface_footprint<T>(gb.positions, gb.normals, gb.pixel_size, ws_.footprint.view(), settings.frame.filter.footprint,
-                                         settings.frame.filter.normal_threshold_degrees, exec);
-                }
-                footprint = ws_.footprint.cview();
-            }
-            guides<const_image_view<glm::vec<3, T>>, Ids, no_guide> g{gb.normals, gb.ids, {}};
-            if (axes)
-                filter_visibility_axes<T>(ws_.raw_visibility.cview(), ws_.filter_width.cview(), footprint,
-                                          ws_.footprint_vertical.cview(), ws_.filtered.view(), ws_.scratch.view(), ws_.filter, g,
-                                          settings.frame.filter, light.normal(), exec);
-            else
-                filter_visibility<T>(ws_.raw_visibility.cview(), ws_.filter_width.cview(), footprint, ws_.filtered.view(),
-                                     ws_.scratch.view(), g, settings.frame.filter, light.normal(), exec);
-        }
+        detail::filter_frame_visibility<T, Ids>(gb, light, ws_, settings.frame.filter, detail::executor_ref(exec));  // as render_frame
         report.filter_ms = detail::ms_since(t0);
 
         exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
