@@ -178,6 +178,7 @@ void exp_negated_as_std(std::size_t n, const T* full, const T* a, T* out) noexce
         constexpr std::size_t L = simd_bytes / 8;  // doubles per vector
         typedef double vd __attribute__((vector_size(simd_bytes)));
         typedef std::int64_t vi __attribute__((vector_size(simd_bytes)));
+        typedef std::uint64_t vu __attribute__((vector_size(simd_bytes)));
         typedef float vf __attribute__((vector_size(simd_bytes / 2)));
         constexpr double shift = 0x1.8p52;  // adding it rounds to an integer, held in the low bits
         constexpr std::int64_t band = std::int64_t(1) << 21, midpoint = std::int64_t(1) << 28;
@@ -201,10 +202,12 @@ void exp_negated_as_std(std::size_t n, const T* full, const T* a, T* out) noexce
             p = p * r + 0.5;
             p = p * r + 1.0;
             p = p * r + 1.0;
-            // 2^k added to the exponent field (p in [0.7, 1.42], k in [−126, 0]: y is a normal double).
-            const vi y = std::bit_cast<vi>(p) + ((std::bit_cast<vi>(t) - std::bit_cast<vi>(vd{} + shift)) << 52);
+            // 2^k added to the exponent field (p in [0.7, 1.42], k in [−126, 0]: y is a normal double). In
+            // unsigned lanes: a lane outside that range (it calls std::exp below) may wrap, which must be
+            // defined (UBSan found the signed form's overflow).
+            const vu y = std::bit_cast<vu>(p) + ((std::bit_cast<vu>(t) - std::bit_cast<vu>(vd{} + shift)) << 52);
             // The 29 bits that rounding to float drops, relative to the midpoint pattern 1000…0.
-            const vi off = (y & (2 * midpoint - 1)) - midpoint;
+            const vi off = std::bit_cast<vi>(y & std::uint64_t(2 * midpoint - 1)) - midpoint;
             const vi has = __builtin_convertvector(ff, vd) > 0.0;
             const vi exact = (x >= -87.0) & (x <= 0.0) & ((off >= band) | (off <= -band));
             const vi scalar = has & ~exact;
