@@ -9,7 +9,10 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <utility>
 #include <vector>
+
+#include <glm/geometric.hpp>
 
 #include <aaf/variants.hpp>
 
@@ -94,4 +97,50 @@ TEST_CASE("progressive_shadow validates its arguments", "[variants][progressive]
     for (std::size_t i = 0; i < out.size(); ++i) CHECK(out.data()[i] == -1.0f);
     CHECK(prog.passes() == 0);
     CHECK(aaf::progressive_shadow<float>::mu_of_pass({}, 4) == Approx(4.0f));  // 2 · 4^0.5
+}
+
+// progressive_shadow and render_sheared write their outputs through render_frame's step 6
+// (detail::write_frame_outputs): the same meaning for misconfigured pixels and the same report counts.
+TEST_CASE("progressive_shadow and render_sheared report misconfigurations and shade zero normals as render_frame does",
+          "[variants][progressive][sheared][extremes]") {
+    scene_t sc;
+    sc.width = sc.height = 16;
+    const aaf_test::span_tracer<float> tracer{&sc};
+    aaf_test::analytic_gbuffer<float> zero(sc);
+    zero.normals.fill(glm::vec3(0));  // orientation-less receivers: they face the light's centre
+    aaf::image<float> vis(16, 16), shaded(16, 16);
+    const auto check_zero_normals = [&](const aaf::frame_report& rep, const char* who) {
+        INFO(who);
+        CHECK(rep.pixels == 256u);
+        CHECK(rep.pixels_zero_normal == 256u);
+        CHECK(rep.pixels_below_horizon == 0u);
+        CHECK_THAT(rep.diagnose(), Catch::Contains("have a zero normal"));
+        for (const auto& [x, y] : {std::pair<std::size_t, std::size_t>{3, 12}, {8, 8}, {12, 4}}) {
+            const glm::vec3 p = sc.position(x, y);
+            const glm::vec3 towards = glm::normalize(sc.area_light().center() - p);
+            CHECK(shaded(x, y) == Approx(vis(x, y) * aaf::unshadowed_irradiance(sc.area_light(), p, towards)));
+        }
+        float lit = 0;
+        for (std::size_t i = 0; i < shaded.size(); ++i) lit = std::max(lit, shaded.data()[i]);
+        CHECK(lit > 0.0f);  // not a silent black frame
+    };
+    aaf::progressive_shadow<float> prog;
+    prog.reset(16, 16);
+    check_zero_normals(prog.add_pass(zero.view(), sc.area_light(), tracer, {vis.view(), shaded.view()}), "progressive_shadow");
+    aaf::sheared_workspace<float> sws;
+    check_zero_normals(aaf::render_sheared(zero.view(), sc.area_light(), tracer, {vis.view(), shaded.view()}, sws), "render_sheared");
+
+    // A one-sided light facing away from every receiver: visibility 0, counted and diagnosed by both.
+    const aaf_test::analytic_gbuffer<float> gb(sc);
+    aaf::area_light<float> away = sc.area_light();
+    std::swap(away.edge_u, away.edge_v);
+    const auto check_away = [&](const aaf::frame_report& rep, const char* who) {
+        INFO(who);
+        CHECK(rep.pixels_behind_light == 256u);
+        CHECK_THAT(rep.diagnose(), Catch::Contains("every surface pixel is behind the one-sided light"));
+        for (std::size_t i = 0; i < vis.size(); ++i) REQUIRE(vis.data()[i] == 0.0f);
+    };
+    prog.reset(16, 16);
+    check_away(prog.add_pass(gb.view(), away, tracer, {vis.view()}), "progressive_shadow");
+    check_away(aaf::render_sheared(gb.view(), away, tracer, {vis.view()}, sws), "render_sheared");
 }

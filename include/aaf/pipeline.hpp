@@ -188,6 +188,57 @@ void filter_frame_visibility(const gbuffer<T, Ids>& gb, const area_light<T>& lig
     }
 }
 
+/// Step 6 of render_frame, also progressive_shadow's and render_sheared's, so that every whole-frame entry
+/// point gives misconfigured pixels the same meaning and reports them alike: a pixel without a surface
+/// (non-finite position or normal) gets visibility 1; a surface pixel without light in `stats` (every sample
+/// below its horizon or behind a one-sided light), or whose `filtered` value is not finite, gets 0; then
+/// clamped to [0, 1]. out.shaded = visibility × (out.unshadowed, or the exact unshadowed irradiance with the
+/// receiver_normal a zero normal stands for). Fills report.pixels and the pixels_* counts.
+template <class T, class Ids>
+void write_frame_outputs(const gbuffer<T, Ids>& gb, const area_light<T>& light, const_image_view<occlusion_stats<T>> stats,
+                         const_image_view<T> filtered, const frame_outputs<T>& out, T radiance, executor_ref exec,
+                         frame_report& report) {
+    const std::size_t w = gb.width(), h = gb.height();
+    const glm::vec<3, T> light_center = light.center();
+    std::atomic<std::uint64_t> no_surface{0}, behind{0}, below{0}, zero_normal{0}, bad_size{0};
+    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
+        std::uint64_t c_no_surface = 0, c_behind = 0, c_below = 0, c_zero = 0, c_bad = 0;
+        for (std::size_t y = y0; y < y1; ++y)
+            for (std::size_t x = 0; x < w; ++x) {
+                const glm::vec<3, T> p = gb.positions(x, y);
+                const glm::vec<3, T> n = gb.normals(x, y);
+                const bool surface = std::isfinite(p.x + p.y + p.z) && std::isfinite(n.x + n.y + n.z);
+                T v = filtered(x, y);
+                if (!surface) {
+                    v = T(1);
+                    ++c_no_surface;
+                } else {
+                    const bool lit = stats(x, y).has_light();
+                    if (!lit || !std::isfinite(v)) v = T(0);
+                    if (!lit) ++(light.emits_towards(p) ? c_below : c_behind);
+                    c_zero += glm::dot(n, n) == T(0);
+                    const T d = gb.pixel_size(x, y);
+                    c_bad += !(d > T(0) && d <= std::numeric_limits<T>::max());
+                }
+                v = std::clamp(v, T(0), T(1));
+                out.visibility(x, y) = v;
+                if (!out.shaded.empty()) {
+                    T e = T(0);
+                    if (!out.unshadowed.empty()) e = out.unshadowed(x, y);
+                    else if (surface) e = unshadowed_irradiance(light, p, receiver_normal(n, p, light_center), radiance);
+                    out.shaded(x, y) = v * e;
+                }
+            }
+        no_surface += c_no_surface, behind += c_behind, below += c_below, zero_normal += c_zero, bad_size += c_bad;
+    });
+    report.pixels = static_cast<std::uint64_t>(w) * h;
+    report.pixels_without_surface = no_surface.load();
+    report.pixels_behind_light = behind.load();
+    report.pixels_below_horizon = below.load();
+    report.pixels_zero_normal = zero_normal.load();
+    report.pixels_bad_pixel_size = bad_size.load();
+}
+
 /// render_frame's stages. Only `gather` calls the tracer, so all of this is compiled once per pixel type and
 /// G-buffer type, whatever the tracer, executor and progress callback (the compiled mode, aaf::compiled,
 /// holds it for float and double, with and without IDs).
@@ -298,45 +349,7 @@ frame_report render_frame_stages(const gbuffer<T, Ids>& gb, const area_light<T>&
     if (!progress(0.95)) return report.cancelled = true, report;
 
     // 6. Outputs, and the counts of the report.
-    const glm::vec<3, T> light_center = light.center();
-    std::atomic<std::uint64_t> no_surface{0}, behind{0}, below{0}, zero_normal{0}, bad_size{0};
-    exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
-        std::uint64_t c_no_surface = 0, c_behind = 0, c_below = 0, c_zero = 0, c_bad = 0;
-        for (std::size_t y = y0; y < y1; ++y)
-            for (std::size_t x = 0; x < w; ++x) {
-                const glm::vec<3, T> p = gb.positions(x, y);
-                const glm::vec<3, T> n = gb.normals(x, y);
-                const bool surface = std::isfinite(p.x + p.y + p.z) && std::isfinite(n.x + n.y + n.z);
-                T v = ws.filtered(x, y);
-                if (!surface) {
-                    v = T(1);
-                    ++c_no_surface;
-                } else {
-                    const bool lit = ws.stats(x, y).has_light();
-                    if (!lit || !std::isfinite(v)) v = T(0);
-                    if (!lit) ++(light.emits_towards(p) ? c_below : c_behind);
-                    c_zero += glm::dot(n, n) == T(0);
-                    const T d = gb.pixel_size(x, y);
-                    c_bad += !(d > T(0) && d <= std::numeric_limits<T>::max());
-                }
-                v = std::clamp(v, T(0), T(1));
-                out.visibility(x, y) = v;
-                if (!out.shaded.empty()) {
-                    T e = T(0);
-                    if (!out.unshadowed.empty()) e = out.unshadowed(x, y);
-                    else if (surface)
-                        e = unshadowed_irradiance(light, p, receiver_normal(n, p, light_center), settings.radiance);
-                    out.shaded(x, y) = v * e;
-                }
-            }
-        no_surface += c_no_surface, behind += c_behind, below += c_below, zero_normal += c_zero, bad_size += c_bad;
-    });
-    report.pixels = static_cast<std::uint64_t>(w) * h;
-    report.pixels_without_surface = no_surface.load();
-    report.pixels_behind_light = behind.load();
-    report.pixels_below_horizon = below.load();
-    report.pixels_zero_normal = zero_normal.load();
-    report.pixels_bad_pixel_size = bad_size.load();
+    write_frame_outputs<T, Ids>(gb, light, ws.stats.cview(), ws.filtered.cview(), out, settings.radiance, exec, report);
     report.total_ms = ms_since(t_frame);
     progress(1.0);
     return report;

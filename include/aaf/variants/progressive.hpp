@@ -90,7 +90,8 @@ public:
     [[nodiscard]] const frame_workspace<T>& workspace() const noexcept { return ws_; }
 
     /// Adds one pass of samples to every surface pixel, then writes the filtered visibility of all samples so
-    /// far (with μ of this pass) to `out` (as render_frame's outputs: sky 1, no light 0, clamped to [0, 1]).
+    /// far (with μ of this pass) to `out` as render_frame writes its outputs (sky 1, no light 0, clamped to [0, 1];
+    /// a zero normal faces the light's centre) and counts the same misconfigured pixels (report.diagnose()).
     /// Call `reset` first; the G-buffer, light and `settings` except μ must stay the same between passes.
     /// Throws aaf::invalid_argument (before writing) on mismatched buffers or invalid settings.
     template <class Ids, class Tracer, class Exec = sequential_executor>
@@ -153,24 +154,8 @@ public:
         detail::filter_frame_visibility<T, Ids>(gb, light, ws_, settings.frame.filter, detail::executor_ref(exec));  // as render_frame
         report.filter_ms = detail::ms_since(t0);
 
-        exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
-            for (std::size_t y = y0; y < y1; ++y)
-                for (std::size_t x = 0; x < w; ++x) {
-                    const glm::vec<3, T> p = gb.positions(x, y), n = gb.normals(x, y);
-                    const bool surface = std::isfinite(p.x + p.y + p.z) && std::isfinite(n.x + n.y + n.z);
-                    T v = ws_.filtered(x, y);
-                    if (!surface) v = T(1);
-                    else if (!ws_.stats(x, y).has_light() || !std::isfinite(v)) v = T(0);
-                    v = std::clamp(v, T(0), T(1));
-                    out.visibility(x, y) = v;
-                    if (!out.shaded.empty()) {
-                        T e = T(0);
-                        if (!out.unshadowed.empty()) e = out.unshadowed(x, y);
-                        else if (surface) e = unshadowed_irradiance(light, p, n, settings.frame.radiance);
-                        out.shaded(x, y) = v * e;
-                    }
-                }
-        });
+        detail::write_frame_outputs<T, Ids>(gb, light, ws_.stats.cview(), ws_.filtered.cview(), out, settings.frame.radiance,
+                                            detail::executor_ref(exec), report);
         report.total_ms = detail::ms_since(t_frame);
         return report;
     }

@@ -302,7 +302,9 @@ struct sheared_workspace {
     std::vector<bin> bins;           ///< row pass: bins_per_axis² per pixel
     std::size_t bins_per_axis = 0;
     image<T> sheared;                ///< sheared filter's output (NaN where not a centre)
-    frame_workspace<T> frame;        ///< aaf's buffers (statistics, slopes, β, its filter) for the fallback
+    /// aaf's buffers (statistics, slopes, β, its filter) for the fallback; after render_sheared,
+    /// `frame.filtered` holds the frame's result before clamping (`sheared` on the centres, aaf's elsewhere).
+    frame_workspace<T> frame;
 };
 
 /// The two factored passes of the sheared filter over stored samples, on every pixel whose shear is a
@@ -518,8 +520,8 @@ std::uint64_t gather_light_samples(const gbuffer<T, Ids>& gb, const area_light<T
 /// 3. pixels that are not sheared centres but have slopes get aaf's adaptive samples (visibility only,
 ///    pass 1, n(μ) capped at max_samples) and aaf's filter (image-space offsets, normals and IDs);
 /// 4. the sheared passes (sheared_filter) on the centres.
-/// Outputs as render_frame's (sky 1, no light 0, clamped to [0, 1]). Throws aaf::invalid_argument before
-/// writing on mismatched buffers or invalid settings.
+/// Outputs and the report's pixel counts as render_frame's (sky 1, no light 0, clamped to [0, 1];
+/// report.diagnose()). Throws aaf::invalid_argument before writing on mismatched buffers or invalid settings.
 template <class T, class Ids, class Tracer, class Exec = sequential_executor>
     requires occlusion_tracer<Tracer, T>
 frame_report render_sheared(const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer, const frame_outputs<T>& out,
@@ -535,7 +537,6 @@ frame_report render_sheared(const gbuffer<T, Ids>& gb, const area_light<T>& ligh
     detail::require_size_or_empty(fn, "outputs.unshadowed", out.unshadowed, w, h);
 
     frame_report report;
-    report.pixels = static_cast<std::uint64_t>(w) * h;
     const auto t_frame = clock::now();
     frame_workspace<T>& fw = ws.frame;
     fw.resize(w, h);
@@ -600,24 +601,14 @@ frame_report render_sheared(const gbuffer<T, Ids>& gb, const area_light<T>& ligh
     }
     report.filter_ms = detail::ms_since(t0);
 
+    // The sheared result on its centres, aaf's elsewhere, into fw.filtered; then render_frame's outputs.
     exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
         for (std::size_t y = y0; y < y1; ++y)
-            for (std::size_t x = 0; x < w; ++x) {
-                const glm::vec<3, T> p = gb.positions(x, y), n = gb.normals(x, y);
-                const bool surface = std::isfinite(p.x + p.y + p.z) && std::isfinite(n.x + n.y + n.z);
-                T v = ws.shears(x, y).center && std::isfinite(ws.sheared(x, y)) ? ws.sheared(x, y) : fw.filtered(x, y);
-                if (!surface) v = T(1);
-                else if (!fw.stats(x, y).has_light() || !std::isfinite(v)) v = T(0);
-                v = std::clamp(v, T(0), T(1));
-                out.visibility(x, y) = v;
-                if (!out.shaded.empty()) {
-                    T e = T(0);
-                    if (!out.unshadowed.empty()) e = out.unshadowed(x, y);
-                    else if (surface) e = unshadowed_irradiance(light, p, n, settings.frame.radiance);
-                    out.shaded(x, y) = v * e;
-                }
-            }
+            for (std::size_t x = 0; x < w; ++x)
+                if (ws.shears(x, y).center && std::isfinite(ws.sheared(x, y))) fw.filtered(x, y) = ws.sheared(x, y);
     });
+    detail::write_frame_outputs<T, Ids>(gb, light, fw.stats.cview(), fw.filtered.cview(), out, settings.frame.radiance,
+                                        detail::executor_ref(exec), report);
     report.total_ms = detail::ms_since(t_frame);
     return report;
 }
