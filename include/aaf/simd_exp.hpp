@@ -200,7 +200,7 @@ inline constexpr double exp2_32nd_lo[32] = {
 /// ISA (the generic lane loop was scalarised by GCC 12).
 template <class VI>
 [[nodiscard]] inline bool any_lane_set(VI m) noexcept {
-#if AAF_SIMD_BYTES == 64 && defined(__AVX512F__)
+#if AAF_SIMD_BYTES == 64 && defined(__AVX512F__) && !defined(__clang__)  // (GCC's builtin)
     typedef long long v8di __attribute__((vector_size(64)));
     return __builtin_ia32_ptestmq512(std::bit_cast<v8di>(m), std::bit_cast<v8di>(m), 0xff) != 0;
 #elif AAF_SIMD_BYTES == 32 && defined(__AVX__)
@@ -216,7 +216,7 @@ template <class VI>
 /// The lanes of a vector of 64-bit masks (0 or all bits) as the low bits of an integer (lane l: bit l).
 template <class VI>
 [[nodiscard]] inline unsigned lane_bits(VI m) noexcept {
-#if AAF_SIMD_BYTES == 64 && defined(__AVX512F__)
+#if AAF_SIMD_BYTES == 64 && defined(__AVX512F__) && !defined(__clang__)  // (GCC's builtin)
     typedef long long v8di __attribute__((vector_size(64)));
     return __builtin_ia32_ptestmq512(std::bit_cast<v8di>(m), std::bit_cast<v8di>(m), 0xff);
 #elif AAF_SIMD_BYTES == 32 && defined(__AVX__)
@@ -372,7 +372,7 @@ void exp_negated_as_std(std::size_t n, const T* full, const T* a, T* out) noexce
                 vi exact;
                 const vd y = exp_nonpositive_dd(-av, exact);
                 const vi has = ff > 0.0;
-                need[c] = lane_bits(has & ~exact);
+                need[c] = static_cast<unsigned char>(lane_bits(has & ~exact));
                 const vd o = has ? y : vd{};
                 std::memcpy(out + i, &o, sizeof o);
             }
