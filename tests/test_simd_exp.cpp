@@ -180,3 +180,61 @@ TEMPLATE_TEST_CASE("simd_exp: exp_negated_as_std computes std::exp(-a)'s bits", 
         CHECK(wrong == 0);
     }
 }
+
+// The double lanes of exp_negated_as_std (exp_nonpositive_dd, where exp_negated_vectors_double holds): e^x
+// carried in two doubles, rounded, and its bits kept only where they are certainly glibc's. Double cannot be
+// checked exhaustively: ~2 million random and edge inputs here (the distributions the filter meets, a = 1/(2β²)
+// for β in [0.05, 20] px, and the whole accepted range), 4·10^9 once (docs/BENCHMARKS.md, "Issue 14: double").
+TEST_CASE("simd_exp: exp_negated_as_std computes std::exp(-a)'s bits in double on random and edge inputs",
+          "[filter][simd_exp]") {
+    std::vector<double> a{0x1p-60, 0x1p-54, 0x1.0000000000001p-54, 0x1p-53, 0x1p-52, 511.9999999999999, 512.0,
+                          512.0000000000001, 0x1.62e42fefa39efp-6, 0x1.62e42fefa39efp-7, 708.0, 709.0, 745.0};
+    std::uint64_t state = 0x9e3779b97f4a7c15u;  // splitmix64: the same inputs on every platform
+    const auto next = [&state] {
+        std::uint64_t z = (state += 0x9e3779b97f4a7c15u);
+        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9u;
+        z = (z ^ (z >> 27)) * 0x94d049bb133111ebu;
+        return z ^ (z >> 31);
+    };
+    const auto uniform = [&next] { return static_cast<double>(next() >> 11) * 0x1p-53; };  // [0, 1)
+    for (int i = 0; i < 2000000; ++i) {
+        switch (i % 5) {
+        case 0: {
+            const double beta = 0.05 + 19.95 * uniform();
+            a.push_back(1.0 / (2.0 * beta * beta));
+        } break;
+        case 1: a.push_back(512.0 * uniform()); break;
+        case 2: a.push_back(std::exp2(-60.0 + 69.0 * uniform())); break;
+        case 3: a.push_back(uniform()); break;
+        default: {  // next to k·ln 2/32, where the reduction's k changes
+            const double k = std::floor(23700.0 * uniform());
+            a.push_back(std::abs(k * 0x1.62e42fefa39efp-6 + (uniform() - 0.5) * 1e-9));
+        }
+        }
+    }
+    std::vector<double> full(a.size(), 3.0), got(a.size(), -1.0);
+    aaf::detail::exp_negated_as_std<double>(a.size(), full.data(), a.data(), got.data());
+    std::size_t wrong = 0, first = a.size();
+    for (std::size_t i = 0; i < a.size(); ++i)
+        if (std::bit_cast<std::uint64_t>(got[i]) != std::bit_cast<std::uint64_t>(std::exp(-a[i])) && wrong++ == 0) first = i;
+    INFO("vector lanes: " << aaf::detail::exp_negated_vectors_double << "; first difference at a = "
+                          << (first < a.size() ? a[first] : 0.0));
+    CHECK(wrong == 0);
+}
+
+// The table of 2^(j/32) the double lanes use: high parts of 26 bits (their products with the reduced
+// argument's 26-bit part must be exact), low parts below half the high part's last place, and the sums equal
+// to 2^(j/32) within the precision a long double can check (x87's 64-bit mantissa on x86-64).
+TEST_CASE("simd_exp: the double lanes' table of 2^(j/32)", "[filter][simd_exp]") {
+    for (int j = 0; j < 32; ++j) {
+        const double hi = aaf::detail::exp2_32nd_hi[j], lo = aaf::detail::exp2_32nd_lo[j];
+        INFO("j = " << j);
+        CHECK(hi * 0x1p25 == std::floor(hi * 0x1p25));
+        CHECK(std::abs(lo) <= 0x1p-26);
+        if constexpr (std::numeric_limits<long double>::digits >= 64) {
+            const long double want = std::exp2(static_cast<long double>(j) / 32.0L);
+            const long double got = static_cast<long double>(hi) + static_cast<long double>(lo);
+            CHECK(std::abs(got - want) <= 0x1p-61L * want);
+        }
+    }
+}

@@ -1431,11 +1431,14 @@ void vertical_pass_radii(const_image_view<T> beta, const_image_view<T> pixel_siz
         const T* AAF_DETAIL_RESTRICT full = st.full_radius.data();
         row_reach[y] = largest_radius(full, w);
         if (frame_radius) std::copy_n(full, w, frame_radius + y * w);
-        if (decay)  // a = 1/(2(β/d)²) and m_1 as image_lanes and the horizontal pass compute them
+        if (decay) {  // a = 1/(2(β/d)²) and m_1 as image_lanes and the horizontal pass compute them
+            T* AAF_DETAIL_RESTRICT a = st.a.data();
             for (std::size_t x = 0; x < w; ++x) {
                 const T beta_px = bw[x] / dw[x];
-                decay[y * w + x] = full[x] > T(0) ? std::exp(-(T(1) / (T(2) * beta_px * beta_px))) : T(0);
+                a[x] = T(1) / (T(2) * beta_px * beta_px);
             }
+            exp_negated_as_std(w, full, a, decay + y * w);  // std::exp(−a)'s bits, in vectors where it can
+        }
     }
 }
 

@@ -20,6 +20,7 @@
 // The rounding to an integer uses the "add 1.5·2^p" trick, so it needs the default rounding mode and
 // no -ffast-math reassociation (aaf is not compiled with it).
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstddef>
@@ -152,11 +153,142 @@ template <class T, class V, class U = unsigned_lanes_t<T, V>>
 /// 2.27 or later, whose expf (the algorithm of ARM's optimized-routines, also musl's) is within 0.502 ulp
 /// of e^x (its source's measured bound; tests/test_simd_exp.cpp checks the agreement on this machine's
 /// libm, and every float in [0, 104] was checked once, docs/BENCHMARKS.md issue 14). Elsewhere (another
-/// libm, narrower vectors, double) the scalar std::exp loop runs.
+/// libm, narrower vectors) the scalar std::exp loop runs; double lanes: exp_negated_vectors_double.
 #if AAF_SIMD_BYTES >= 32 && defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 27))
 inline constexpr bool exp_negated_vectors = true;
 #else
 inline constexpr bool exp_negated_vectors = false;
+#endif
+
+/// Whether exp_negated_as_std computes double lanes in vectors: with 32- or 64-byte vectors, against glibc
+/// 2.28 or later, whose exp (ARM's optimized-routines algorithm, sysdeps/ieee754/dbl-64/e_exp.c) is within
+/// 0.511 ulp of e^x: its documented bound, "ulp error: 0.509 (0.511 without fma)" (e_exp_data.c), derived
+/// in e_exp.c as 0.5 + 1.11/N + (polynomial error)·2^53 ulp with N = 128, plus 0.25/N ulp without FMA.
+/// aaf relies on that bound (docs/DEVIATIONS.md); tests/test_simd_exp.cpp checks the agreement on random
+/// and edge inputs, and 4·10^9 random inputs were checked once (docs/BENCHMARKS.md, "Issue 14: double").
+#if AAF_SIMD_BYTES >= 32 && defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 28))
+inline constexpr bool exp_negated_vectors_double = true;
+#else
+inline constexpr bool exp_negated_vectors_double = false;
+#endif
+
+/// 2^(j/32) = exp2_32nd_hi[j] + exp2_32nd_lo[j] for j in [0, 32): the high part rounded to 26 significant
+/// bits (so that its product with a 26-bit number is exact in double), the low part the rest rounded to
+/// double (relative error of the sum below 2^−79). Computed for aaf with 200-digit decimal arithmetic
+/// (Python's decimal module: exp(j·ln 2/32)).
+inline constexpr double exp2_32nd_hi[32] = {
+    0x1.0000000000000p+0, 0x1.059b0d0000000p+0, 0x1.0b55870000000p+0, 0x1.11301d0000000p+0,
+    0x1.172b840000000p+0, 0x1.1d48730000000p+0, 0x1.2387a70000000p+0, 0x1.29e9df8000000p+0,
+    0x1.306fe08000000p+0, 0x1.371a738000000p+0, 0x1.3dea650000000p+0, 0x1.44e0860000000p+0,
+    0x1.4bfdad8000000p+0, 0x1.5342b58000000p+0, 0x1.5ab07e0000000p+0, 0x1.6247eb0000000p+0,
+    0x1.6a09e68000000p+0, 0x1.71f75e8000000p+0, 0x1.7a11470000000p+0, 0x1.8258998000000p+0,
+    0x1.8ace540000000p+0, 0x1.93737b0000000p+0, 0x1.9c49180000000p+0, 0x1.a5503b0000000p+0,
+    0x1.ae89f98000000p+0, 0x1.b7f76f0000000p+0, 0x1.c199be0000000p+0, 0x1.cb720e0000000p+0,
+    0x1.d5818e0000000p+0, 0x1.dfc9730000000p+0, 0x1.ea4afa0000000p+0, 0x1.f507658000000p+0};
+inline constexpr double exp2_32nd_lo[32] = {
+    0x0.0p+0, 0x1.8ac2ba1d73e2ap-27, -0x1.833b784eb3a37p-27, 0x1.25b50a4ebbf1bp-32, -0x1.c15742919041cp-27,
+    0x1.68b9aa7805b80p-28, -0x1.8a9dc7993e052p-28, -0x1.70108f69ed175p-27, 0x1.18db8a96f46adp-27,
+    -0x1.8aac6ab1d7560p-29, -0x1.f6e5eee525f6fp-27, 0x1.8624b40c4dbd0p-30, -0x1.64eaec715e343p-27,
+    -0x1.62b07e20f57c4p-28, -0x1.5bd5eb539b67fp-27, 0x1.d2ac258f87d03p-31, -0x1.80c4336f74d05p-28,
+    0x1.d8bee7ba46e1ep-29, 0x1.f580c36bea881p-27, 0x1.4cce128acf88bp-28, 0x1.15506dadd3e2bp-27,
+    0x1.9b8bc9e8a0388p-29, 0x1.51f8480e3e236p-27, 0x1.1f12ae45a1225p-27, 0x1.5ad3ad5e8734dp-28,
+    0x1.7daf237553d84p-27, -0x1.3d56b1eeef9a7p-27, -0x1.8837cb757e1a1p-27, -0x1.822dbc6d12fd3p-27,
+    0x1.bdcdaf5cb4656p-27, 0x1.52486cc2c7b9dp-27, 0x1.b722a033a7c26p-27};
+
+#if AAF_SIMD_BYTES >= 32
+/// Whether any lane of a vector of 64-bit masks (0 or all bits) is set: one instruction on the vectors'
+/// ISA (the generic lane loop was scalarised by GCC 12).
+template <class VI>
+[[nodiscard]] inline bool any_lane_set(VI m) noexcept {
+#if AAF_SIMD_BYTES == 64 && defined(__AVX512F__) && !defined(__clang__)  // (GCC's builtin)
+    typedef long long v8di __attribute__((vector_size(64)));
+    return __builtin_ia32_ptestmq512(std::bit_cast<v8di>(m), std::bit_cast<v8di>(m), 0xff) != 0;
+#elif AAF_SIMD_BYTES == 32 && defined(__AVX__)
+    typedef double v4df __attribute__((vector_size(32)));
+    return __builtin_ia32_movmskpd256(std::bit_cast<v4df>(m)) != 0;
+#else
+    bool any = false;
+    for (std::size_t l = 0; l < sizeof(VI) / 8; ++l) any = any | (m[l] != 0);
+    return any;
+#endif
+}
+
+/// The lanes of a vector of 64-bit masks (0 or all bits) as the low bits of an integer (lane l: bit l).
+template <class VI>
+[[nodiscard]] inline unsigned lane_bits(VI m) noexcept {
+#if AAF_SIMD_BYTES == 64 && defined(__AVX512F__) && !defined(__clang__)  // (GCC's builtin)
+    typedef long long v8di __attribute__((vector_size(64)));
+    return __builtin_ia32_ptestmq512(std::bit_cast<v8di>(m), std::bit_cast<v8di>(m), 0xff);
+#elif AAF_SIMD_BYTES == 32 && defined(__AVX__)
+    typedef double v4df __attribute__((vector_size(32)));
+    return static_cast<unsigned>(__builtin_ia32_movmskpd256(std::bit_cast<v4df>(m)));
+#else
+    unsigned bits = 0;
+    for (std::size_t l = 0; l < sizeof(VI) / 8; ++l) bits |= (m[l] != 0 ? 1u : 0u) << l;
+    return bits;
+#endif
+}
+
+/// e^x in double lanes for x in (−512, 0], rounded to nearest, and `exact`: the lanes where that result is
+/// certainly std::exp(x)'s bits (glibc ≥ 2.28; see exp_negated_vectors_double); other lanes' results are
+/// meaningless. x = k·ln 2/32 + r (k the nearest integer to 32x/ln 2, |r| ≤ ln 2/64), e^x = 2^(k/32)·e^r,
+/// carried in two doubles (double-double) to a relative error below 2^−62 (0.002 ulp):
+/// * r = rh + rl: ln 2/32 in three parts, the first two of 38 bits so that k·part is exact for |k| < 2^15;
+///   x − k·part1 is exact (Sterbenz), the subtraction of k·part2 is an exact TwoSum; error below 2^−100.
+/// * e^r = 1 + rh + q + rl·(1 + rh), q = rh²·(1/2 + rh/6 + … + rh^6/8!) in double: truncation below 2^−76,
+///   q < 2^−14 with rounding errors below 2^−65.
+/// * rh = rhh + (rh − rhh), rhh rounded to a multiple of 2^−32 (26 bits), so that hi·rhh is exact with the
+///   table's 26-bit high part hi; the rest ul (< 2^−13.9) is added in double (errors below 2^−63 in all).
+/// * z = hi + hi·rhh (exact Fast2Sum) + [hi·ul + lo·(1 + rhh + ul)], and a final Fast2Sum gives y = yh + yl
+///   with yh = y rounded to nearest and yl exact; then yh·2^(k div 32) by adding to the exponent field.
+/// Every product is either exact or only rounded, and only additions must be exact, so a compiler that
+/// fuses a multiply and an add (FMA contraction, GCC's default) changes no bound.
+/// `exact`: |yl| < (1/2 − 1/64)·ulp(yh), yh not a power of two (where the spacing below halves), x in
+/// (−512, 0] (glibc's main path; a normal result). Then e^x lies more than 1/64 − 0.002 > 0.013 ulp from
+/// every midpoint between doubles, so it rounds to yh, and an exp within 0.511 ulp returns yh: every other
+/// double is more than 0.513 ulp from e^x. About 3 % of lanes fail the test (they call std::exp).
+typedef double f64_lanes __attribute__((vector_size(simd_bytes)));
+typedef std::int64_t i64_lanes __attribute__((vector_size(simd_bytes)));
+[[nodiscard]] inline f64_lanes exp_nonpositive_dd(f64_lanes x, i64_lanes& exact) noexcept {
+    using VD = f64_lanes;
+    typedef std::uint64_t vu __attribute__((vector_size(simd_bytes)));
+    constexpr double shift = 0x1.8p52;  // adding it rounds to an integer, held in the low bits
+    const VD t = x * 0x1.71547652b82fep+5 + shift;  // 32/ln 2
+    const VD kd = t - shift;
+    const VD r1 = x - kd * 0x1.62e42fefa0000p-6;  // exact (ln 2/32, first 38 bits)
+    const VD k2 = kd * -0x1.cf79abc9e0000p-45;   // exact (next 38 bits)
+    const VD rh = r1 + k2;                        // TwoSum(r1, k2)
+    const VD bv = rh - r1;
+    const VD rl = ((r1 - (rh - bv)) + (k2 - bv)) - kd * 0x1.d9cc01f97b57ap-84;
+    VD p = VD{} + 1.0 / 40320.0;
+    p = p * rh + 1.0 / 5040.0;
+    p = p * rh + 1.0 / 720.0;
+    p = p * rh + 1.0 / 120.0;
+    p = p * rh + 1.0 / 24.0;
+    p = p * rh + 1.0 / 6.0;
+    p = p * rh + 0.5;
+    const VD q = (rh * rh) * p;
+    const VD rhh = (rh + 0x1.8p20) - 0x1.8p20;  // a multiple of 2^−32
+    const VD ul = (rh - rhh) + (q + rl * (1.0 + rh));
+    const vu ku = std::bit_cast<vu>(t) - std::bit_cast<vu>(VD{} + shift);  // k (unsigned: wraps, defined)
+    VD hi, lo;
+    for (std::size_t l = 0; l < sizeof(VD) / 8; ++l) {
+        const std::size_t j = static_cast<std::size_t>(ku[l] & 31u);
+        hi[l] = exp2_32nd_hi[j], lo[l] = exp2_32nd_lo[j];
+    }
+    const VD hr = hi * rhh;  // exact
+    const VD zh = hi + hr;   // Fast2Sum(hi, hr): |hi| ≥ |hr|
+    const VD zl = hr - (zh - hi);
+    const VD m = (zl + (hi * ul + (lo + lo * (rhh + ul))));
+    const VD yh = zh + m;  // Fast2Sum(zh, m)
+    const VD yl = m - (yh - zh);
+    const vu bits = std::bit_cast<vu>(yh);
+    const VD pow2 = std::bit_cast<VD>(bits & 0x7ff0000000000000u);  // 2^e ≤ yh; ulp(yh) = 2^(e−52)
+    const VD ayl = std::bit_cast<VD>(std::bit_cast<vu>(yl) & 0x7fffffffffffffffu);
+    exact = (x > -512.0) & (x <= 0.0) & (ayl < pow2 * (0x1p-53 - 0x1p-58)) & (yh != pow2);
+    // yh·2^(k div 32): k div 32 added to the exponent field (bits 5… of k shifted there; high bits drop).
+    return std::bit_cast<VD>(bits + ((ku >> 5) << 52));
+}
 #endif
 
 /// out[i] = full[i] > 0 ? std::exp(−a[i]) : 0 for i in [0, n): the image-space filter's m_1 = e^−a per pixel
@@ -170,6 +302,8 @@ inline constexpr bool exp_negated_vectors = false;
 /// correctly rounded value whenever e^−a is more than 0.002 ulp from a midpoint. So outside that band the
 /// rounded y is std::exp's bits; lanes inside it (about 0.8 % of them), lanes with −a outside [−87, 0] (a
 /// result that may be subnormal, Inf or NaN inputs) call std::exp as before.
+/// Where exp_negated_vectors_double holds, double lanes compute e^−a in double-double (exp_nonpositive_dd)
+/// and keep its rounding where that is certainly glibc's; the other lanes (~3 %) call std::exp.
 template <class T>
 void exp_negated_as_std(std::size_t n, const T* full, const T* a, T* out) noexcept {
     std::size_t i = 0;
@@ -212,21 +346,41 @@ void exp_negated_as_std(std::size_t n, const T* full, const T* a, T* out) noexce
             const vi exact = (x >= -87.0) & (x <= 0.0) & ((off >= band) | (off <= -band));
             const vi scalar = has & ~exact;
             vf o = __builtin_convertvector(has ? std::bit_cast<vd>(y) : vd{}, vf);
-            // Whether any lane needs std::exp: one instruction on the vectors' ISA (the generic lane loop
-            // was scalarised by GCC 12).
-#if AAF_SIMD_BYTES == 64 && defined(__AVX512F__)
-            typedef long long v8di __attribute__((vector_size(64)));
-            const bool any = __builtin_ia32_ptestmq512(std::bit_cast<v8di>(scalar), std::bit_cast<v8di>(scalar), 0xff) != 0;
-#elif AAF_SIMD_BYTES == 32 && defined(__AVX__)
-            const bool any = __builtin_ia32_movmskpd256(std::bit_cast<vd>(scalar)) != 0;
-#else
-            bool any = false;
-            for (std::size_t l = 0; l < L; ++l) any = any | (scalar[l] != 0);
-#endif
-            if (any) [[unlikely]]
+            if (any_lane_set(scalar)) [[unlikely]]
                 for (std::size_t l = 0; l < L; ++l)
                     if (scalar[l]) o[l] = std::exp(-a[i + l]);
             std::memcpy(out + i, &o, sizeof o);
+        }
+    }
+    if constexpr (exp_negated_vectors_double && std::is_same_v<T, double>) {
+        constexpr std::size_t L = simd_bytes / 8;  // doubles per vector
+        using vd = f64_lanes;
+        using vi = i64_lanes;
+        // In chunks: the vectors first, without a branch, noting the lanes that need std::exp; then those
+        // lanes. (A branch per vector on the lanes' test, taken by ~20 % of 8-lane vectors, resolved only at
+        // the end of the vector's long dependency chain: the mispredictions cost as much as the arithmetic.)
+        constexpr std::size_t chunk = 32;  // vectors
+        const std::size_t whole = n - n % L;
+        while (i < whole) {
+            const std::size_t begin = i, end = std::min(whole, i + chunk * L);
+            unsigned char need[chunk];  // per vector: bit l set if lane l calls std::exp
+            std::size_t c = 0;
+            for (; i < end; i += L, ++c) {
+                vd av, ff;
+                std::memcpy(&av, a + i, sizeof av);
+                std::memcpy(&ff, full + i, sizeof ff);
+                vi exact;
+                const vd y = exp_nonpositive_dd(-av, exact);
+                const vi has = ff > 0.0;
+                need[c] = static_cast<unsigned char>(lane_bits(has & ~exact));
+                const vd o = has ? y : vd{};
+                std::memcpy(out + i, &o, sizeof o);
+            }
+            for (std::size_t v = 0; v < c; ++v)
+                for (unsigned bits = need[v]; bits != 0; bits &= bits - 1) {
+                    const std::size_t at = begin + v * L + static_cast<std::size_t>(std::countr_zero(bits));
+                    out[at] = std::exp(-a[at]);
+                }
         }
     }
 #endif
