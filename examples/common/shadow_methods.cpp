@@ -270,6 +270,13 @@ method_family shadow_methods() {
                     .horizon = true},
                    "aaf_axes_ld90 with unfiltered_at_horizon: the one configuration with >= 3x fewer rays than stratified MC at mu = 2 "
                    "on all ten scenes (docs/RESULTS.md, issue 13)"),
+        aaf_method("aaf_one95", "aaf",
+                   {.footprint = aaf::pixel_footprint::surface_axes,
+                    .pattern = aaf::sample_pattern::low_discrepancy,
+                    .light_scale = 0.95f,
+                    .horizon = true},
+                   "aaf_one with light_scale 0.95: a thinner margin on the blinds, a smaller cost on car and tentacles "
+                   "(docs/RESULTS.md, issue 13)"),
         aaf_method("aaf_laxes", "aaf", {.footprint = aaf::pixel_footprint::light_axes},
                    "as aaf_axes with the per-axis steps projected on the light's plane (light_axes)"),
         aaf_method("aaf_laxes_ld", "aaf", {.footprint = aaf::pixel_footprint::light_axes, .pattern = aaf::sample_pattern::low_discrepancy},
