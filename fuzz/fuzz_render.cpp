@@ -181,6 +181,9 @@ int run(aaf_fuzz::reader& in) {
     s.formulas.mu = in.value(s.formulas.mu);
     s.formulas.alpha = in.value(s.formulas.alpha);
     s.formulas.max_slope = in.value(s.formulas.max_slope);
+    // Issue 13's options, from bits already read (the corpus's byte layout stays as it was).
+    s.formulas.light_scale = (s.sampling.light_index & 2u) ? T(0.9) : T(1);
+    s.filter.unfiltered_at_horizon = (s.sampling.light_index & 4u) != 0;
     s.filter.space = in.flag() ? aaf::offset_space::light_plane : aaf::offset_space::image;
     s.filter.truncation = in.value(s.filter.truncation);
     s.filter.max_radius = in.count(s.filter.max_radius);

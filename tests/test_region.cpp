@@ -191,6 +191,14 @@ TEST_CASE("random tilings with region_halo reproduce the full frame bit for bit 
             CHECK(differing_pixels<true>(s, settings, ++seed) == 0);
         }
     }
+    SECTION("issue 13's one configuration: per-axis footprints, Sobol' samples, light_scale 0.9, the horizon rule") {
+        aaf::frame_settings<float> settings = base;
+        settings.filter.footprint = aaf::pixel_footprint::surface_axes;
+        settings.sampling.pattern = aaf::sample_pattern::low_discrepancy;
+        settings.formulas.light_scale = 0.9f;
+        settings.filter.unfiltered_at_horizon = true;
+        CHECK(differing_pixels<true>(s, settings, 77) == 0);
+    }
     SECTION("the default settings (halo 34, wider than this frame)") {
         CHECK(differing_pixels<true>(s, aaf::frame_settings<float>{}, 99) == 0);
     }

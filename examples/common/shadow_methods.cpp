@@ -72,6 +72,8 @@ struct aaf_variant {
     float min_stretch = 1;                                      ///< filter_settings::footprint_min_stretch
     aaf::light_profile light = aaf::light_profile::gaussian;   ///< formula_settings::light (issue 13's box-matched β)
     aaf::sample_pattern pattern = aaf::sampling_settings{}.pattern;  ///< the library's default unless named
+    float light_scale = 1;                                      ///< formula_settings::light_scale (issue 13)
+    bool horizon = false;                                       ///< filter_settings::unfiltered_at_horizon (issue 13)
 };
 
 /// The settings of one point of an aaf or preset method.
@@ -92,6 +94,8 @@ aaf::frame_settings<float> aaf_settings(const aaf_variant& v, double knob, std::
         fs.filter.footprint = v.footprint;
         fs.filter.footprint_min_stretch = v.min_stretch;
         fs.formulas.light = v.light;
+        fs.formulas.light_scale = v.light_scale;
+        fs.filter.unfiltered_at_horizon = v.horizon;
         fs.sampling.pattern = v.pattern;
         // render_frame always filters with normals (and IDs when the G-buffer has them): a threshold of
         // 180° accepts every finite normal, which is the normal guide switched off.
@@ -135,6 +139,8 @@ json aaf_settings_json(const aaf_variant& v, const std::string& description) {
                                                                                  : "light_axes (s_x, s_y projected on the light's plane)";
     if (fs.filter.footprint != aaf::pixel_footprint::camera) j["footprint_min_stretch"] = fs.filter.footprint_min_stretch;
     j["light_profile"] = fs.formulas.light == aaf::light_profile::box ? "box (beta's light term uses sigma/sqrt 3)" : "gaussian";
+    j["light_scale"] = fs.formulas.light_scale;
+    j["unfiltered_at_horizon"] = fs.filter.unfiltered_at_horizon;
     json guides = json::array();
     if (v.guides) guides.push_back("normals"), guides.push_back("ids");
     if (fs.filter.space == aaf::offset_space::light_plane) guides.push_back("positions");
@@ -250,6 +256,27 @@ method_family shadow_methods() {
         aaf_method("aaf_axes_box_ld", "aaf",
                    {.footprint = aaf::pixel_footprint::surface_axes, .light = aaf::light_profile::box, .pattern = aaf::sample_pattern::low_discrepancy},
                    "aaf_axes_box with Owen-scrambled Sobol' light samples"),
+        aaf_method("aaf_axes_ld90", "aaf",
+                   {.footprint = aaf::pixel_footprint::surface_axes, .pattern = aaf::sample_pattern::low_discrepancy, .light_scale = 0.9f},
+                   "aaf_axes_ld with beta's light term at 0.9 sigma (formula_settings::light_scale, between the Gaussian's sigma and "
+                   "the box's sigma/sqrt 3)"),
+        aaf_method("aaf_axes_ld_hz", "aaf",
+                   {.footprint = aaf::pixel_footprint::surface_axes, .pattern = aaf::sample_pattern::low_discrepancy, .horizon = true},
+                   "aaf_axes_ld with pixels whose tangent plane cuts the light left unfiltered (filter_settings::unfiltered_at_horizon)"),
+        aaf_method("aaf_one", "aaf",
+                   {.footprint = aaf::pixel_footprint::surface_axes,
+                    .pattern = aaf::sample_pattern::low_discrepancy,
+                    .light_scale = 0.9f,
+                    .horizon = true},
+                   "aaf_axes_ld90 with unfiltered_at_horizon: the one configuration with >= 3x fewer rays than stratified MC at mu = 2 "
+                   "on all ten scenes (docs/RESULTS.md, issue 13)"),
+        aaf_method("aaf_one95", "aaf",
+                   {.footprint = aaf::pixel_footprint::surface_axes,
+                    .pattern = aaf::sample_pattern::low_discrepancy,
+                    .light_scale = 0.95f,
+                    .horizon = true},
+                   "aaf_one with light_scale 0.95: a thinner margin on the blinds, a smaller cost on car and tentacles "
+                   "(docs/RESULTS.md, issue 13)"),
         aaf_method("aaf_laxes", "aaf", {.footprint = aaf::pixel_footprint::light_axes},
                    "as aaf_axes with the per-axis steps projected on the light's plane (light_axes)"),
         aaf_method("aaf_laxes_ld", "aaf", {.footprint = aaf::pixel_footprint::light_axes, .pattern = aaf::sample_pattern::low_discrepancy},

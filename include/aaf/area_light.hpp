@@ -64,6 +64,19 @@ struct area_light {
     /// Weight of light point `y` for a receiver at `p` with unit normal `n`, under `weighting`.
     /// Zero when `y` is below the receiver's horizon or `p` is behind a one-sided light.
     /// (Computes the light's constants each call; light_sample_frame keeps them for many samples.)
+    /// True when the plane through `p` with normal `n` (a receiver's tangent plane) cuts the light: some corner
+    /// strictly above it and some strictly below, so part of the light is below the receiver's horizon and its
+    /// visibility depends on the normal as well as on the occluders (issue 13, DEVIATIONS.md L2). A corner on
+    /// the plane holds no area and counts on neither side; non-finite input or a zero normal gives false.
+    [[nodiscard]] bool straddles_horizon(const vec3& p, const vec3& n) const noexcept {
+        const vec3 c[4] = {corner, corner + edge_u, corner + edge_v, corner + edge_u + edge_v};
+        bool above = false, below = false;
+        for (const vec3& q : c) {
+            const T h = glm::dot(n, q - p);
+            above |= h > T(0), below |= h < T(0);
+        }
+        return above && below;  // NaN compares false both ways
+    }
     [[nodiscard]] T sample_weight(light_weighting weighting, const vec3& p, const vec3& n, const vec3& y) const noexcept;
 };
 

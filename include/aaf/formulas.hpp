@@ -88,12 +88,13 @@ template <class T>
 
 /// Filter bandwidth Ω* in world units⁻¹ (§1.7): paper μ·min(1/(σ s2), Ω_x^max); authors min(μ/(σ s2), Ω_x^max).
 /// With formula_settings::light = light_profile::box the light term uses σ/√3 (filter_light_sigma; a
-/// deviation from the paper, DEVIATIONS.md): Ω* and β only, sample_count keeps the paper's σ.
+/// deviation from the paper, DEVIATIONS.md), times formula_settings::light_scale (DEVIATIONS.md L1): Ω* and β
+/// only, sample_count keeps the paper's σ.
 template <class T>
 [[nodiscard]] constexpr T filter_bandwidth(const slope_pair<T>& s, T sigma, T pixel_size,
                                            const formula_settings<T>& f) noexcept {
     if (!detail::formula_inputs_valid(s, sigma, pixel_size)) return detail::inf<T>;
-    const T light = light_limited_bandwidth(filter_light_sigma(sigma, f.light), s.s2);
+    const T light = light_limited_bandwidth(filter_light_sigma(sigma, f.light) * f.light_scale, s.s2);
     const T pixel = receiver_bandlimit(pixel_size, s.s2, f.alpha);
     return f.form == formula_form::paper ? f.mu * std::min(light, pixel) : std::min(f.mu * light, pixel);
 }

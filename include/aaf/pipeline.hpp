@@ -331,12 +331,20 @@ frame_report render_frame_stages(const gbuffer<T, Ids>& gb, const area_light<T>&
 
     // 4. β per pixel and the unfiltered visibility.
     t0 = clock::now();
+    const bool horizon_rule = settings.filter.unfiltered_at_horizon;
+    const glm::vec<3, T> centre = light.center();
     exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
         for (std::size_t y = y0; y < y1; ++y)
             for (std::size_t x = 0; x < w; ++x) {
                 const T d = gb.pixel_size(x, y);  // not a positive finite length: not filtered (β = 0)
                 ws.filter_width(x, y) =
                     d > T(0) && d <= std::numeric_limits<T>::max() ? filter_width(ws.slopes(x, y), sigma, d, fs) : T(0);
+                // Part of the light below the pixel's horizon (the normal the samples were drawn with): its own
+                // estimate, not filtered (filter_settings::unfiltered_at_horizon).
+                if (horizon_rule) {
+                    const glm::vec<3, T> p = gb.positions(x, y);
+                    if (light.straddles_horizon(p, receiver_normal(gb.normals(x, y), p, centre))) ws.filter_width(x, y) = T(0);
+                }
                 ws.raw_visibility(x, y) = ws.stats(x, y).visibility();
             }
     });

@@ -50,6 +50,12 @@ struct formula_settings {
     T alpha = 1;                              ///< pixel-bandwidth scale; (0, ∞), paper 1
     T max_slope = T(1e6);                     ///< guard: slopes are capped here (d2 ≥ d1/(1+max_slope)); > 0
     light_profile light = light_profile::gaussian;  ///< the light β's light term assumes (n is unaffected)
+    /// Multiplies the standard deviation β's light term uses (after `light`): 1 (default) keeps the profile's
+    /// own. 0.9 with `gaussian`, between the paper's σ and the box's σ/√3 (0.577), is the compromise measured
+    /// to keep ≥ 3× fewer rays than stratified MC on all ten example scenes with per-axis widths and Sobol'
+    /// samples (DEVIATIONS.md L1). Only β where light-limited changes; n and pixel-limited widths do not;
+    /// still consistent (β → 0 as μ → ∞). Finite, > 0.
+    T light_scale = 1;
 };
 
 /// What the adaptive pass asks the tracer for each of its samples (the initial pass always asks for distances).
@@ -123,6 +129,12 @@ struct filter_settings {
     /// camera's d; [1, ∞), 1 = the surface footprint everywhere. Tilt matters where a surface is seen at a
     /// grazing angle; a mildly tilted pixel gains little from a narrower kernel and pays in noise at high μ.
     T footprint_min_stretch = 1;
+    /// render_frame: a pixel whose tangent plane cuts the light (area_light::straddles_horizon: part of the light
+    /// below its horizon) is not filtered (β = 0) and keeps its own estimate. The paper's spectrum assumes the
+    /// whole light above the receiver; across such pixels visibility follows the normal at a scale the occluder
+    /// slopes do not bound (a curved receiver turning away from the light), and the filter blurs it. Off by
+    /// default (the paper filters them); DEVIATIONS.md L2.
+    bool unfiltered_at_horizon = false;
 };
 
 /// Everything one frame needs besides buffers, light and tracer.
@@ -181,6 +193,8 @@ void validate(const formula_settings<T>& s, const char* function = "validate") {
             "must be finite and > 0 (got " + std::to_string(s.max_slope) + ")");
     require(s.light == light_profile::gaussian || s.light == light_profile::box, function, "settings.formulas.light",
             "must be light_profile::gaussian or light_profile::box (got " + std::to_string(static_cast<int>(s.light)) + ")");
+    require(std::isfinite(s.light_scale) && s.light_scale > T(0), function, "settings.formulas.light_scale",
+            "must be finite and > 0 (got " + std::to_string(s.light_scale) + ")");
 }
 
 inline void validate(const sampling_settings& s, const char* function = "validate") {
