@@ -144,3 +144,41 @@ TEST_CASE("progressive_shadow and render_sheared report misconfigurations and sh
     check_away(prog.add_pass(gb.view(), away, tracer, {vis.view()}), "progressive_shadow");
     check_away(aaf::render_sheared(gb.view(), away, tracer, {vis.view()}, sws), "render_sheared");
 }
+
+TEST_CASE("progressive_shadow and render_sheared follow filter_settings::unfiltered_at_horizon", "[variants][progressive][sheared][horizon]") {
+    // The left half's normals tilted 80° about z (as test_filter_light_scale.cpp): their tangent planes cut the light.
+    scene_t sc;
+    sc.width = sc.height = 16;
+    aaf_test::analytic_gbuffer<float> gb(sc);
+    const float t = 1.3962634f;
+    for (std::size_t y = 0; y < 16; ++y)
+        for (std::size_t x = 0; x < 8; ++x) gb.normals(x, y) = {std::sin(t), std::cos(t), 0};
+    const aaf_test::span_tracer<float> tracer{&sc};
+    const aaf::area_light<float> light = sc.area_light();
+    aaf::image<float> out(16, 16);
+    aaf::progressive_settings<float> ps;
+    aaf::sheared_settings<float> ss;
+    std::size_t straddling = 0, filtered_without = 0;
+    for (const bool rule : {false, true}) {
+        ps.frame.filter.unfiltered_at_horizon = ss.frame.filter.unfiltered_at_horizon = rule;
+        aaf::progressive_shadow<float> prog;
+        prog.reset(16, 16);
+        prog.add_pass(gb.view_with_ids(), light, tracer, {out.view()}, ps);
+        aaf::sheared_workspace<float> sws;
+        aaf::render_sheared(gb.view_with_ids(), light, tracer, {out.view()}, sws, ss);
+        for (std::size_t y = 0; y < 16; ++y)
+            for (std::size_t x = 0; x < 16; ++x) {
+                if (!light.straddles_horizon(gb.positions(x, y), gb.normals(x, y))) continue;
+                const float bp = prog.workspace().filter_width(x, y), bs = sws.frame.filter_width(x, y);
+                if (rule) {
+                    CHECK(bp == 0.0f);
+                    CHECK(bs == 0.0f);
+                } else {
+                    ++straddling;
+                    filtered_without += bp > 0.0f;
+                }
+            }
+    }
+    CHECK(straddling > 8);  // the scene has such pixels (16 at 16×16)
+    CHECK(filtered_without > 10);  // without the rule these pixels are filtered
+}

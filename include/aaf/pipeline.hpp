@@ -188,6 +188,16 @@ void filter_frame_visibility(const gbuffer<T, Ids>& gb, const area_light<T>& lig
     }
 }
 
+/// filter_settings::unfiltered_at_horizon's test of pixel (x, y), shared by render_frame, progressive_shadow
+/// and render_sheared: its tangent plane, with the normal its samples are drawn with (receiver_normal), cuts
+/// the light. `light_center` = light.center().
+template <class T, class Ids>
+[[nodiscard]] bool straddles_horizon_at(const gbuffer<T, Ids>& gb, const area_light<T>& light, const glm::vec<3, T>& light_center,
+                                        std::size_t x, std::size_t y) noexcept {
+    const glm::vec<3, T> p = gb.positions(x, y);
+    return light.straddles_horizon(p, receiver_normal(gb.normals(x, y), p, light_center));
+}
+
 /// Step 6 of render_frame, also progressive_shadow's and render_sheared's, so that every whole-frame entry
 /// point gives misconfigured pixels the same meaning and reports them alike: a pixel without a surface
 /// (non-finite position or normal) gets visibility 1; a surface pixel without light in `stats` (every sample
@@ -341,10 +351,7 @@ frame_report render_frame_stages(const gbuffer<T, Ids>& gb, const area_light<T>&
                     d > T(0) && d <= std::numeric_limits<T>::max() ? filter_width(ws.slopes(x, y), sigma, d, fs) : T(0);
                 // Part of the light below the pixel's horizon (the normal the samples were drawn with): its own
                 // estimate, not filtered (filter_settings::unfiltered_at_horizon).
-                if (horizon_rule) {
-                    const glm::vec<3, T> p = gb.positions(x, y);
-                    if (light.straddles_horizon(p, receiver_normal(gb.normals(x, y), p, centre))) ws.filter_width(x, y) = T(0);
-                }
+                if (horizon_rule && straddles_horizon_at(gb, light, centre, x, y)) ws.filter_width(x, y) = T(0);
                 ws.raw_visibility(x, y) = ws.stats(x, y).visibility();
             }
     });

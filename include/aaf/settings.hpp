@@ -129,11 +129,12 @@ struct filter_settings {
     /// camera's d; [1, ∞), 1 = the surface footprint everywhere. Tilt matters where a surface is seen at a
     /// grazing angle; a mildly tilted pixel gains little from a narrower kernel and pays in noise at high μ.
     T footprint_min_stretch = 1;
-    /// render_frame: a pixel whose tangent plane cuts the light (area_light::straddles_horizon: part of the light
-    /// below its horizon) is not filtered (β = 0) and keeps its own estimate. The paper's spectrum assumes the
-    /// whole light above the receiver; across such pixels visibility follows the normal at a scale the occluder
-    /// slopes do not bound (a curved receiver turning away from the light), and the filter blurs it. Off by
-    /// default (the paper filters them); DEVIATIONS.md L2.
+    /// render_frame (also progressive_shadow, and render_sheared's aaf pixels): a pixel whose tangent plane
+    /// cuts the light (area_light::straddles_horizon: part of the light below its horizon) is not filtered
+    /// (β = 0) and keeps its own estimate. The paper's spectrum assumes the whole light above the receiver;
+    /// across such pixels visibility follows the normal at a scale the occluder slopes do not bound (a curved
+    /// receiver turning away from the light), and the filter blurs it. Off by default (the paper filters
+    /// them); DEVIATIONS.md L2.
     bool unfiltered_at_horizon = false;
 };
 

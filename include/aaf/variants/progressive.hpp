@@ -138,6 +138,8 @@ public:
         }();
         if (settings.frame.filter.spread_slopes)
             spread_slopes<T>(ws_.slopes.view(), ws_.slope_scratch.view(), settings.frame.filter.spread_radius, id_guides, exec);
+        const bool horizon_rule = settings.frame.filter.unfiltered_at_horizon;  // as render_frame
+        const glm::vec<3, T> centre = light.center();
         exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
             for (std::size_t y = y0; y < y1; ++y)
                 for (std::size_t x = 0; x < w; ++x) {
@@ -145,6 +147,7 @@ public:
                     if (settings.schedule == mu_schedule::matched_samples)
                         f.mu = matched_mu(ws_.slopes(x, y), sigma, gb.pixel_size(x, y), f, static_cast<T>(ws_.stats(x, y).samples));
                     ws_.filter_width(x, y) = filter_width(ws_.slopes(x, y), sigma, gb.pixel_size(x, y), f);
+                    if (horizon_rule && detail::straddles_horizon_at(gb, light, centre, x, y)) ws_.filter_width(x, y) = T(0);
                     ws_.raw_visibility(x, y) = ws_.stats(x, y).visibility();
                 }
         });

@@ -564,6 +564,8 @@ frame_report render_sheared(const gbuffer<T, Ids>& gb, const area_light<T>& ligh
     }();
     if (settings.frame.filter.spread_slopes)
         spread_slopes<T>(fw.slopes.view(), fw.slope_scratch.view(), settings.frame.filter.spread_radius, id_guides, exec);
+    const bool horizon_rule = settings.frame.filter.unfiltered_at_horizon;
+    const glm::vec<3, T> centre = light.center();
     exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
         for (std::size_t y = y0; y < y1; ++y)
             for (std::size_t x = 0; x < w; ++x) {
@@ -571,6 +573,8 @@ frame_report render_sheared(const gbuffer<T, Ids>& gb, const area_light<T>& ligh
                 const shear<T> sh = shear_of(fw.slopes(x, y), sigma, d, settings);
                 ws.shears(x, y) = sh;
                 fw.filter_width(x, y) = sh.center ? T(0) : filter_width(fw.slopes(x, y), sigma, d, fs);
+                // aaf's pixels follow render_frame's horizon rule (the sheared centres have their own gather).
+                if (horizon_rule && detail::straddles_horizon_at(gb, light, centre, x, y)) fw.filter_width(x, y) = T(0);
                 std::uint32_t extra = 0;
                 if (!sh.center && ss.adaptive && fw.slopes(x, y).has_occluder()) {
                     const std::uint32_t n = target_samples(sample_count(fw.slopes(x, y), sigma, d, fs), ss.initial_samples, ss.max_samples);
