@@ -808,15 +808,14 @@ TEST_CASE("filter: identical bits with sequential, thread_pool(2), thread_pool(3
 namespace {
 /// One pass evaluated pixel by pixel in the most direct way (the implementation before the lane-parallel
 /// rewrite): for each centre, k = 1..radius, the −k side then the +k side, the weight recurrence
-/// w_k = w_{k-1}·m_k, m_k *= q in image space and one exp per tap on the light plane: std::exp of the
-/// projected 3-D difference (the definition), or with `library_exp` the library's: its vectorisable exp
-/// (detail::light_plane_weight, within 2 ulp of it) of the distance from plane coordinates relative to the
-/// centre's tile origin (docs/DEVIATIONS.md; with `distance_3d`, of the 3-D difference as before issue 14). A non-finite centre uses the library's scalar rule
+/// w_k = w_{k-1}·m_k, m_k *= q in image space and one exp per tap on the light plane: std::exp (the
+/// definition), or with `library_exp` the library's vectorisable exp (detail::light_plane_weight, within
+/// 2 ulp of it; docs/DEVIATIONS.md). A non-finite centre uses the library's scalar rule
 /// (detail::non_finite_centre_average), which the fast path also calls.
 template <bool Horizontal, class T, class G>
 void per_pixel_pass(aaf::const_image_view<T> src, aaf::image_view<T> dst, aaf::const_image_view<T> beta,
                     aaf::const_image_view<T> d, const G& g, const glm::vec<3, T>& ln, const aaf::filter_settings<T>& s,
-                    bool library_exp = false, bool distance_3d = false) {
+                    bool library_exp = false) {
     namespace ad = aaf::detail;
     constexpr auto dir = Horizontal ? ad::pass_direction::horizontal : ad::pass_direction::vertical;
     const bool light_plane = s.space == aaf::offset_space::light_plane;
@@ -857,19 +856,9 @@ void per_pixel_pass(aaf::const_image_view<T> src, aaf::image_view<T> dst, aaf::c
                     if (!std::isfinite(v) || !gc.accepts(g, nx, ny, cos_thr)) continue;
                     T weight = wk;
                     if (light_plane) {
-                        // The library's definition: plane coordinates relative to the centre's tile origin
-                        // (docs/DEVIATIONS.md, issue 14); the original: the projected 3-D difference.
-                        if (library_exp && distance_3d) {  // the definition before issue 14's plane coordinates
-                            const T d2 = ad::light_plane_distance2(g, nx, ny, p, ln);
-                            weight = ad::light_plane_weight<T>(d2 * ad::light_plane_scale<T>(inv_two_beta2));
-                        } else if (library_exp) {
-                            const glm::vec<3, T> o = ad::light_plane_origin<dir, T>(
-                                [&](std::size_t qx, std::size_t qy) { return g.positions(qx, qy); }, x, y, w, h);
-                            const T d2 = ad::light_plane_uv_distance2<T>(g.positions(nx, ny), p, o, ad::light_plane_basis(ln));
-                            weight = ad::light_plane_weight<T>(d2 * ad::light_plane_scale<T>(inv_two_beta2));
-                        } else {
-                            weight = std::exp(-ad::light_plane_distance2(g, nx, ny, p, ln) * inv_two_beta2);
-                        }
+                        const T d2 = ad::light_plane_distance2(g, nx, ny, p, ln);
+                        weight = library_exp ? ad::light_plane_weight<T>(d2 * ad::light_plane_scale<T>(inv_two_beta2))
+                                             : std::exp(-d2 * inv_two_beta2);
                         if (!std::isfinite(weight)) continue;
                     }
                     sum += weight * v;
@@ -1018,84 +1007,6 @@ TEMPLATE_TEST_CASE("filter: the lane-parallel passes equal a per-pixel evaluatio
     // For docs/DEVIATIONS.md (shown with -s): the light plane's largest difference from the std::exp definition.
     INFO("light plane, largest |fast - per-pixel with std::exp|: " << light_plane_std_exp_difference<TestType>());
     CHECK(light_plane_std_exp_difference<TestType>() <= light_plane_tolerance<TestType>);
-}
-
-TEMPLATE_TEST_CASE("filter: the light plane far from the world's origin equals the per-pixel definition bit for bit "
-                   "and stays within the tolerance of the 3-D distance with std::exp",
-                   "[filter]", float, double) {
-    // The light-plane passes measure a tap's distance through plane coordinates relative to a position of
-    // the centre's tile (detail::light_plane_origin), so that their rounding follows the tile's extent, not
-    // the distance from the world's origin (docs/DEVIATIONS.md, issue 14): frames translated by 1e3 and 1e4
-    // scene units (64 and 640 thousand pixels) against the original definition.
-    using T = TestType;
-    light_plane_std_exp_difference<T>() = 0;
-    for (const double offset : {1e3, 1e4}) {
-        for (std::uint64_t seed = 1; seed <= 4; ++seed) {
-            aaf_ref::rng r(seed * 17 + 11);
-            const std::size_t w = 20 + r.below(90), h = 10 + r.below(60);
-            padded_frame<T> f = random_padded_frame<T>(seed * 5 + 2, w, h, r.below(3), 8.0, seed % 2 == 0);
-            for (auto& p : f.p) p += glm::vec<3, T>(T(offset), T(-0.5 * offset), T(0.75 * offset));
-            aaf::filter_settings<T> s;
-            s.space = aaf::offset_space::light_plane;
-            const glm::vec<3, T> ln{T(0.1), T(1), T(0.2 * r.uniform())};
-            const auto N = f.view(f.n), P = f.view(f.p);
-            const auto I = f.view(f.id);
-            INFO("offset " << offset << ", seed " << seed << ", " << w << "x" << h);
-            check_against_per_pixel(f, aaf::guides{N, I, P}, s, ln);
-            check_against_per_pixel(f, aaf::guides<aaf::no_guide, aaf::no_guide, decltype(P)>{{}, {}, P}, s, ln);
-        }
-    }
-    // For docs/DEVIATIONS.md (shown with -s).
-    INFO("light plane far from the origin, largest |fast - per-pixel with std::exp|: " << light_plane_std_exp_difference<T>());
-    CHECK(light_plane_std_exp_difference<T>() <= light_plane_tolerance<T>);
-}
-
-// Hidden (run with "[.lightplane_measure]" -s): the light plane's difference from the original definition
-// (std::exp of the projected 3-D difference) on the benchmark frame (BM_filter's 1280×720, float, normals +
-// IDs + positions), also translated by 1e3 and 1e4 scene units, for the library (plane coordinates) and for
-// the definition before issue 14 (the library's exp of the 3-D difference). Figures in docs/DEVIATIONS.md.
-TEST_CASE("filter: light-plane difference from the std::exp definition on the benchmark frame", "[.lightplane_measure]") {
-    using T = float;
-    const std::size_t w = 1280, h = 720;
-    padded_frame<T> f{w, h, w, {}, {}, {}, {}, {}, {}};
-    f.vis.resize(w * h), f.beta.resize(w * h), f.d.resize(w * h), f.n.resize(w * h), f.p.resize(w * h), f.id.resize(w * h);
-    const double pw = 0.01;  // benchmarks/bench_common.hpp's synthetic_frame, the same formulas
-    for (std::size_t y = 0; y < h; ++y)
-        for (std::size_t x = 0; x < w; ++x) {
-            const std::size_t i = y * w + x;
-            const double fx = static_cast<double>(x), fy = static_cast<double>(y);
-            f.vis[i] = static_cast<T>(0.5 + 0.5 * std::sin(0.05 * fx) * std::cos(0.03 * fy));
-            f.beta[i] = static_cast<T>(pw * (5.5 + 4.5 * std::sin(0.004 * fx + 0.006 * fy)));
-            f.d[i] = static_cast<T>(pw);
-            f.id[i] = static_cast<std::uint32_t>((x / 200 + y / 150) % 3);
-            f.n[i] = glm::vec<3, T>(glm::normalize(glm::dvec3(0.1 * std::sin(0.01 * fx), 1.0, 0.0)));
-        }
-    for (const double offset : {0.0, 1e3, 1e4}) {
-        for (std::size_t y = 0; y < h; ++y)
-            for (std::size_t x = 0; x < w; ++x)
-                f.p[y * w + x] = glm::vec<3, T>(glm::dvec3(pw * static_cast<double>(x) + offset, -0.5 * offset,
-                                                           pw * static_cast<double>(y) + 0.75 * offset));
-        const auto vis = f.view(f.vis), beta = f.view(f.beta), d = f.view(f.d);
-        const auto g = aaf::guides{f.view(f.n), f.view(f.id), f.view(f.p)};
-        aaf::filter_settings<T> s;
-        s.space = aaf::offset_space::light_plane;
-        const glm::vec<3, T> ln{0, 1, 0};
-        aaf::image<T> out(w, h), scratch(w, h), h_std(w, h), v_std(w, h), h_old(w, h), v_old(w, h);
-        aaf::filter_visibility<T>(vis, beta, d, out.view(), scratch.view(), g, s, ln);
-        per_pixel_pass<true, T>(vis, h_std.view(), beta, d, g, ln, s);
-        per_pixel_pass<false, T>(h_std.cview(), v_std.view(), beta, d, g, ln, s);
-        per_pixel_pass<true, T>(vis, h_old.view(), beta, d, g, ln, s, true, true);
-        per_pixel_pass<false, T>(h_old.cview(), v_old.view(), beta, d, g, ln, s, true, true);
-        bool nf = false;
-        std::size_t differ = 0, differ_old = 0;
-        for (std::size_t i = 0; i < w * h; ++i) differ += out.data()[i] != v_std.data()[i], differ_old += v_old.data()[i] != v_std.data()[i];
-        WARN("offset " << offset << ": library (plane coordinates) max |out - std::exp 3-D| horizontal "
-                       << max_abs_difference(scratch, h_std, nf) << ", both passes " << max_abs_difference(out, v_std, nf)
-                       << " (" << differ << " pixels differ); before issue 14 (3-D, library exp): horizontal "
-                       << max_abs_difference(h_old, h_std, nf) << ", both " << max_abs_difference(v_old, v_std, nf) << " ("
-                       << differ_old << " differ); library vs before: " << max_abs_difference(out, v_old, nf));
-        CHECK_FALSE(nf);
-    }
 }
 
 namespace {

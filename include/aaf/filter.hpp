@@ -92,89 +92,6 @@ template <class T, class G>
     return light_plane_distance2<T>(g.positions(nx, ny), p, light_normal);
 }
 
-/// An orthonormal basis (t1, t2) of the plane orthogonal to the unit vector `n`, so that n, t1, t2 are
-/// orthonormal: the branch-free construction of Duff et al. 2017 ("Building an Orthonormal Basis,
-/// Revisited", JCGT 6(1)), after Frisvad 2012. A light-plane distance |d|² − (d·n)² is then u² + v² with
-/// u = d·t1, v = d·t2 (issue 14: per-pixel plane coordinates).
-template <class T>
-struct plane_basis {
-    glm::vec<3, T> t1, t2;
-};
-template <class T>
-[[nodiscard]] plane_basis<T> light_plane_basis(const glm::vec<3, T>& n) noexcept {
-    const T sign = std::copysign(T(1), n.z);
-    const T a = T(-1) / (sign + n.z);
-    const T b = n.x * n.y * a;
-    return {{T(1) + sign * n.x * n.x * a, sign * b, -sign * n.x}, {b, sign + n.y * n.y * a, -n.y}};
-}
-
-/// The plane coordinates (u, v) of the offsets (dx, dy, dz) from an origin, for a scalar T or a vector of
-/// lanes: one source expression for both, so that fma contraction treats the lanes and the scalar rule alike.
-template <class V>
-void plane_coordinates(V dx, V dy, V dz, V ax, V ay, V az, V bx, V by, V bz, V& u, V& v) noexcept {
-    u = dx * ax + dy * ay + dz * az;
-    v = dx * bx + dy * by + dz * bz;
-}
-
-/// The squared light-plane distance between two points of plane coordinates (pu, pv) and (qu, qv): the
-/// same expression for the lanes and the scalar rule. Never negative; NaN for a NaN coordinate.
-template <class V>
-[[nodiscard]] V plane_uv_distance2(V qu, V qv, V pu, V pv) noexcept {
-    const V du = qu - pu, dv = qv - pv;
-    return du * du + dv * dv;
-}
-
-/// The tiles whose pixels share one origin for their light-plane coordinates: the horizontal pass's are
-/// 16 columns of one row, the vertical pass's 16 columns × 16 rows. The coordinates of a position are
-/// computed relative to its tile's origin, a position of the tile, so that their rounding follows the tile's
-/// extent plus the kernel's reach, not the distance from the world's origin (docs/DEVIATIONS.md, issue 14).
-/// Every centre of a tile and all its taps use the tile's origin. Larger tiles compute each pixel's
-/// coordinates fewer times (a 16-row tile 4.7 times per pixel and pass at a reach of 30 px, a 64-row one
-/// 1.9) but round them relative to a farther origin: 64-column and 64-row tiles measured 1.6e−6 from the
-/// std::exp definition on the tests' random frames (float), beyond the tests' 1e−6; 16 × 16, 5.4e−7.
-template <pass_direction Dir>
-inline constexpr std::size_t light_plane_tile_width = 16;
-inline constexpr std::size_t light_plane_tile_height = 16;  // the vertical pass's
-
-/// The origin of the light-plane coordinates of centre (x, y) in a pass along `Dir` over a w × h image:
-/// the first position (row by row) with a finite x + y + z in the centre's tile — columns
-/// [x − x mod 16, +16) of row y for the horizontal pass, of rows [y − y mod 16, +16) for the vertical pass
-/// (clipped to the image) — or 0 when the tile has none (then no centre of the tile has taps).
-/// `position(x, y)` returns the guide's position.
-template <pass_direction Dir, class T, class Position>
-[[nodiscard]] glm::vec<3, T> light_plane_origin(const Position& position, std::size_t x, std::size_t y, std::size_t w,
-                                                std::size_t h) noexcept {
-    constexpr T max_finite = std::numeric_limits<T>::max();
-    constexpr std::size_t tw = light_plane_tile_width<Dir>;
-    const std::size_t x0 = x - x % tw, x1 = std::min(x0 + tw, w);
-    const std::size_t y0 = Dir == pass_direction::horizontal ? y : y - y % light_plane_tile_height;
-    const std::size_t y1 = Dir == pass_direction::horizontal ? y + 1 : std::min(y0 + light_plane_tile_height, h);
-    for (std::size_t j = y0; j < y1; ++j)
-        for (std::size_t i = x0; i < x1; ++i) {
-            const glm::vec<3, T> p = position(i, j);
-            if (std::abs(p.x + p.y + p.z) <= max_finite) return p;
-        }
-    return glm::vec<3, T>(0);
-}
-
-/// The plane coordinates (u, v) of position `q` relative to the origin `o` (the scalar rule; the lanes
-/// compute the same expression).
-template <class T>
-void light_plane_uv(const glm::vec<3, T>& q, const glm::vec<3, T>& o, const plane_basis<T>& b, T& u, T& v) noexcept {
-    plane_coordinates<T>(q.x - o.x, q.y - o.y, q.z - o.z, b.t1.x, b.t1.y, b.t1.z, b.t2.x, b.t2.y, b.t2.z, u, v);
-}
-
-/// The squared light-plane distance between `q` and `p` through their plane coordinates relative to `o`
-/// (the light-plane passes' definition of a tap's distance; issue 14).
-template <class T>
-[[nodiscard]] T light_plane_uv_distance2(const glm::vec<3, T>& q, const glm::vec<3, T>& p, const glm::vec<3, T>& o,
-                                         const plane_basis<T>& b) noexcept {
-    T qu, qv, pu, pv;
-    light_plane_uv(q, o, b, qu, qv);
-    light_plane_uv(p, o, b, pu, pv);
-    return plane_uv_distance2<T>(qu, qv, pu, pv);
-}
-
 /// The result of a pass for a non-finite centre: the Gaussian average of its accepted finite neighbours.
 /// Such a centre has no weight of its own, so the result is a ratio of neighbour weights only, and for a
 /// narrow kernel every exp(−e) can underflow to 0 in T (e.g. β/d < 0.07 px in float: exp(−1/(2·0.07²)) = 0)
@@ -223,13 +140,6 @@ template <pass_direction Dir, offset_space Space, class T, class G>
 #define AAF_DETAIL_RESTRICT __restrict
 #else
 #define AAF_DETAIL_RESTRICT
-#endif
-// Kept out of line where inlining into the large filter_pass left its loop short of registers (pointers
-// reloaded from the stack on every tap).
-#if defined(__GNUC__) || defined(__clang__)
-#define AAF_DETAIL_NOINLINE __attribute__((noinline))
-#else
-#define AAF_DETAIL_NOINLINE
 #endif
 
 /// Rows of centres per task of a pass (the executor's unit of work): amortises the vertical pass's copy
@@ -424,12 +334,10 @@ struct tap_rows {
 template <class T>
 struct lane_state {
     std::vector<T> beta, pixel_size, full_radius, radius, a, wk, mk, q, sum, wsum, inv_two_beta2, out;
-    std::vector<T> ox, oy, oz;  // light plane, scalar path: each lane's origin (light_plane_origin)
-    std::vector<T> window;      // light plane, vectors: a tile's plane coordinates (u then v); grows on use
 
     explicit lane_state(std::size_t w)
         : beta(w), pixel_size(w), full_radius(w), radius(w), a(w), wk(w), mk(w), q(w), sum(w), wsum(w),
-          inv_two_beta2(w), out(w), ox(w), oy(w), oz(w) {}
+          inv_two_beta2(w), out(w) {}
 };
 
 /// The vertical image-space pass's per-block lane state (rows × width): radii, sums, and each row's
@@ -728,104 +636,6 @@ void light_plane_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& 
     for (std::size_t g = 0; g < Groups; ++g) S::store(sum + x0 + g * N, s[g]), S::store(wsum + x0 + g * N, ws[g]);
 }
 
-/// Light-plane taps (offset_space::light_plane) of `Groups` vectors of lanes starting at lane `x0` of the
-/// row whose centres are element `centre_at` of `rows`, as light_plane_lane_groups but with the distances
-/// from plane coordinates: `wu`, `wv` hold the coordinates of group 0's centres, those of lane l of group g
-/// at element g·lanes + l, and those of its neighbours at ∓k at ∓k·`wstep` elements from it. A tap's
-/// distance is then plane_uv_distance2 (two loads, two subtractions, a multiply and an fma) instead of a
-/// 3-D difference and its projection. Each lane computes the per-pixel definition's arithmetic
-/// (light_plane_uv_distance2, light_plane_weight) in its order: the same bits.
-template <std::size_t Groups, class T, class Rows>
-AAF_DETAIL_NOINLINE void light_plane_uv_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& rows,
-                                const std::size_t* AAF_DETAIL_RESTRICT left, const std::size_t* AAF_DETAIL_RESTRICT right,
-                                const T* AAF_DETAIL_RESTRICT radius, const T* AAF_DETAIL_RESTRICT inv_two_beta2,
-                                const T* AAF_DETAIL_RESTRICT wu, const T* AAF_DETAIL_RESTRICT wv, std::size_t wstep,
-                                T cos_threshold, T* AAF_DETAIL_RESTRICT sum, T* AAF_DETAIL_RESTRICT wsum) noexcept {
-    using S = simd<T>;
-    using vec = typename S::vec;
-    using mask = typename S::mask;
-    constexpr std::size_t N = S::lanes;
-    constexpr bool normals = Rows::normals, ids = Rows::ids;
-    const T* AAF_DETAIL_RESTRICT v = rows.v;
-    vec s[Groups], ws[Groups], r[Groups], a[Groups], cu[Groups], cv[Groups];  // a: light_plane_scale
-    [[maybe_unused]] vec cnx[Groups], cny[Groups], cnz[Groups];
-    [[maybe_unused]] typename S::id cid[Groups];
-    for (std::size_t g = 0; g < Groups; ++g) {
-        const std::size_t x = x0 + g * N, c = centre_at + x;
-        r[g] = S::load(radius + x);
-        a[g] = light_plane_scale<T>(S::load(inv_two_beta2 + x));
-        s[g] = S::load(v + c);
-        ws[g] = S::splat(T(1));
-        cu[g] = S::load(wu + g * N), cv[g] = S::load(wv + g * N);
-        if constexpr (normals) cnx[g] = S::load(&rows.nx[c]), cny[g] = S::load(&rows.ny[c]), cnz[g] = S::load(&rows.nz[c]);
-        if constexpr (ids) cid[g] = S::template load<typename S::id>(&rows.id[c]);
-    }
-    const std::size_t steps = largest_radius(radius + x0, Groups * N);
-    const vec threshold = S::splat(cos_threshold);
-    const auto tap = [&](std::size_t g, std::size_t i, std::size_t at, vec distance) {
-        const vec value = S::load(v + i);
-        mask ok = distance <= r[g];
-        // False for ±Inf and NaN; with normals, tap_rows gave such values a NaN normal instead.
-        if constexpr (!normals) ok = ok & S::finite(value);
-        if constexpr (ids) ok = ok & S::equal(S::template load<typename S::id>(&rows.id[i]), cid[g]);
-        if constexpr (normals)
-            ok = ok & (cnx[g] * S::load(&rows.nx[i]) + cny[g] * S::load(&rows.ny[i]) + cnz[g] * S::load(&rows.nz[i]) >= threshold);
-        const vec e2 = plane_uv_distance2<vec>(S::load(wu + at), S::load(wv + at), cu[g], cv[g]) * a[g];
-        ok = ok & light_plane_accepts<T>(e2);  // false for a NaN position or a negligible weight
-        const vec weight = light_plane_weight<T>(e2);
-        s[g] = S::select(ok, s[g] + weight * value, s[g]);
-        ws[g] = S::select(ok, ws[g] + weight, ws[g]);
-    };
-    vec distance = S::splat(T(0));  // k as T in every lane (whole numbers: exact)
-    for (std::size_t k = 1; k <= steps; ++k) {
-        distance = distance + T(1);
-        const std::size_t l = left[k] + x0, rr = right[k] + x0, d = k * wstep;
-        for (std::size_t g = 0; g < Groups; ++g) {
-            tap(g, l + g * N, g * N - d, distance);  // unsigned wrap-around: wu + at is the element ∓k·wstep away
-            tap(g, rr + g * N, g * N + d, distance);
-        }
-    }
-    for (std::size_t g = 0; g < Groups; ++g) S::store(sum + x0 + g * N, s[g]), S::store(wsum + x0 + g * N, ws[g]);
-}
-#endif
-
-/// The plane coordinates of n positions (component arrays px, py, pz) relative to `o` into u, v: the
-/// lanes, then the scalar rule (light_plane_uv's expression: the same bits).
-template <class T>
-void plane_coordinates_span(std::size_t n, const T* AAF_DETAIL_RESTRICT px, const T* AAF_DETAIL_RESTRICT py,
-                            const T* AAF_DETAIL_RESTRICT pz, const glm::vec<3, T>& o, const plane_basis<T>& b,
-                            T* AAF_DETAIL_RESTRICT u, T* AAF_DETAIL_RESTRICT v) noexcept {
-    std::size_t i = 0;
-#if AAF_SIMD_BYTES > 0
-    using S = simd<T>;
-    using vec = typename S::vec;
-    const vec ox = S::splat(o.x), oy = S::splat(o.y), oz = S::splat(o.z);
-    const vec ax = S::splat(b.t1.x), ay = S::splat(b.t1.y), az = S::splat(b.t1.z);
-    const vec bx = S::splat(b.t2.x), by = S::splat(b.t2.y), bz = S::splat(b.t2.z);
-    for (; i + S::lanes <= n; i += S::lanes) {
-        vec uu, vv;
-        plane_coordinates<vec>(S::load(px + i) - ox, S::load(py + i) - oy, S::load(pz + i) - oz, ax, ay, az, bx, by, bz, uu, vv);
-        S::store(u + i, uu), S::store(v + i, vv);
-    }
-#endif
-    for (; i < n; ++i)
-        plane_coordinates<T>(px[i] - o.x, py[i] - o.y, pz[i] - o.z, b.t1.x, b.t1.y, b.t1.z, b.t2.x, b.t2.y, b.t2.z, u[i], v[i]);
-}
-
-#if AAF_SIMD_BYTES > 0
-/// The lane groups of tile column [tx, te) of a row of w ≥ simd<T>::lanes centres: vectors from
-/// lo = min(tx, w − lanes) (the last tile may be narrower than a vector: its vector then starts in the
-/// previous tile, whose own pass runs later and overwrites those lanes), the last ending at te − 1.
-/// Calls f(x0) per vector.
-template <class T, class F>
-void light_plane_tile_vectors(std::size_t w, std::size_t tx, std::size_t te, F&& f) {
-    constexpr std::size_t N = simd<T>::lanes;
-    const std::size_t lo = std::min(tx, w - N);
-    for (std::size_t x0 = lo; x0 < te; x0 += N) f(std::min(x0, te - N));
-}
-#endif
-
-#if AAF_SIMD_BYTES > 0
 /// Light-plane taps of every lane of a row of `w` ≥ simd<T>::lanes centres (see light_plane_lane_groups):
 /// single vectors, the last one ending at lane w − 1 (it may redo lanes of the previous one: same bits).
 template <bool Tangent, class T, class Rows>
@@ -844,13 +654,12 @@ void light_plane_row_vector(std::size_t w, std::size_t centre_at, const Rows& ro
 /// builds without vectors; light_plane_lane_groups computes the same bits.) `Tangent`: distances are projected on each
 /// centre's own normal (offset_space::tangent_plane) instead of `ln`.
 template <class T, bool Normals, bool Ids, bool Tangent = false>
-void light_plane_taps(std::size_t n, T k, T cos_threshold, const T* AAF_DETAIL_RESTRICT radius,
+void light_plane_taps(std::size_t n, T k, T cos_threshold, const glm::vec<3, T>& ln, const T* AAF_DETAIL_RESTRICT radius,
                       const T* AAF_DETAIL_RESTRICT inv_two_beta2, T* AAF_DETAIL_RESTRICT sum, T* AAF_DETAIL_RESTRICT wsum,
                       const T* AAF_DETAIL_RESTRICT cnx, const T* AAF_DETAIL_RESTRICT cny, const T* AAF_DETAIL_RESTRICT cnz,
                       const std::uint32_t* AAF_DETAIL_RESTRICT cid, const T* AAF_DETAIL_RESTRICT cpx,
                       const T* AAF_DETAIL_RESTRICT cpy, const T* AAF_DETAIL_RESTRICT cpz,
-                      const T* AAF_DETAIL_RESTRICT ox, const T* AAF_DETAIL_RESTRICT oy, const T* AAF_DETAIL_RESTRICT oz,
-                      const plane_basis<T>& basis, tap_cursor<T> L, tap_cursor<T> R,
+                      tap_cursor<T> L, tap_cursor<T> R,
                       unsigned char* AAF_DETAIL_RESTRICT lok,
                       unsigned char* AAF_DETAIL_RESTRICT rok) noexcept {
     constexpr T max_finite = std::numeric_limits<T>::max();
@@ -869,15 +678,13 @@ void light_plane_taps(std::size_t n, T k, T cos_threshold, const T* AAF_DETAIL_R
         lok[i] = l;
         rok[i] = r;
     }
-    // The distance as the per-pixel definition: on the light plane light_plane_uv_distance2 relative to the
-    // lane's tile origin `o`, on the tangent plane light_plane_distance2 (the same expressions as the
-    // vector lanes, so that fma contraction treats all alike: bitwise equal results).
+    // The distance through light_plane_distance2 as the per-pixel definition (plane_distance2: the same
+    // expression as the vector lanes, so that fma contraction treats all alike: bitwise equal results).
     const auto add = [&](std::size_t i, const auto& c) {
         const glm::vec<3, T> p{cpx[i], cpy[i], cpz[i]}, q{c.px[i], c.py[i], c.pz[i]};
-        T d2;
-        if constexpr (Tangent) d2 = light_plane_distance2<T>(q, p, glm::vec<3, T>{cnx[i], cny[i], cnz[i]});
-        else d2 = light_plane_uv_distance2<T>(q, p, glm::vec<3, T>{ox[i], oy[i], oz[i]}, basis);
-        const T weight = light_plane_weight<T>(d2 * light_plane_scale<T>(inv_two_beta2[i]));
+        glm::vec<3, T> axis = ln;
+        if constexpr (Tangent) axis = {cnx[i], cny[i], cnz[i]};
+        const T weight = light_plane_weight<T>(light_plane_distance2<T>(q, p, axis) * light_plane_scale<T>(inv_two_beta2[i]));
         if (!std::isfinite(weight)) return;  // NaN position, or a negligible weight
         sum[i] += weight * c.v[i];
         wsum[i] += weight;
@@ -1098,7 +905,6 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
     constexpr bool light_plane = Space != offset_space::image;  // world offsets: light or tangent plane
     const std::size_t w = src.width(), h = src.height();
     const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
-    const plane_basis<T> basis = light_plane_basis(light_normal);  // light plane: the plane coordinates' axes
 
     lane_state<T>& st = ws.st;
     tap_rows<T, G, Space> rows(frame ? *frame : ws.rows);
@@ -1239,66 +1045,14 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                     }
                 }
                 constexpr std::size_t N = simd<T>::lanes;
-                if constexpr (Space == offset_space::tangent_plane) {
-                    for (std::size_t x0 = 0; x0 < w; x0 += N)
-                        for (std::size_t y = block; y < block_end; ++y) {
-                            const std::size_t i = y - block;
-                            light_plane_lane_groups<1, true, T>(std::min(x0, w - N), row_start(y - first_row), rows,
-                                                                &B.left[i * R], &B.right[i * R], &B.radius[i * w],
-                                                                &inv_two_beta2[i * w], light_normal, cos_threshold,
-                                                                &B.sum[i * w], &B.wsum[i * w]);
-                        }
-                } else {
-                    // Tiles of 16 columns × light_plane_tile_height rows (light_plane_origin), the last tile column
-                    // first (light_plane_tile_vectors): the plane coordinates of the tile's rows and of the rows
-                    // within its reach, relative to the tile's origin, in a window of tile-width rows; then the
-                    // tile's vectors of lanes, row by row.
-                    constexpr std::size_t TW = light_plane_tile_width<pass_direction::vertical>, TH = light_plane_tile_height;
-                    for (std::size_t t = (w + TW - 1) / TW; t-- > 0;) {
-                        const std::size_t tx = t * TW, te = std::min(tx + TW, w), lo = std::min(tx, w - N);
-                        for (std::size_t ty = block; ty < block_end;) {
-                            const std::size_t ty_end = std::min(ty - ty % TH + TH, block_end);
-                            std::size_t tr = 0;  // the tile rows' reach
-                            for (std::size_t y = ty; y < ty_end; ++y) tr = std::max(tr, row_reach[y]);
-                            const std::size_t wrows = ty_end - ty + 2 * tr;
-                            if (st.window.size() < 2 * wrows * TW) st.window.resize(2 * wrows * TW);
-                            T* wu = st.window.data();
-                            T* wv = wu + wrows * TW;
-                            const glm::vec<3, T> o = light_plane_origin<pass_direction::vertical, T>(
-                                [&](std::size_t px, std::size_t py) { return g.positions(px, py); }, tx, ty, w, h);
-                            for (std::size_t j = 0; j < wrows; ++j) {  // window row j: image row ty − tr + j
-                                const std::size_t yy = ty + j, at = row_start(yy >= tr && yy - tr < h ? yy - tr - first_row : nan_row) + lo;
-                                plane_coordinates_span(te - lo, rows.px + at, rows.py + at, rows.pz + at, o, basis,
-                                                       wu + j * TW, wv + j * TW);
-                            }
-                            for (std::size_t y = ty; y < ty_end; ++y) {
-                                const std::size_t i = y - block;
-                                // The rows that enter the reach next (the walk's row stride defeats the
-                                // hardware prefetchers; image_vertical_columns).
-                                if (frame && y + tr + 4 < h) {
-                                    const std::size_t p = row_start(y + tr + 4) + lo;
-                                    for (std::size_t b = 0; b < (te - lo) * sizeof(T); b += 64) {
-                                        __builtin_prefetch(reinterpret_cast<const char*>(rows.v + p) + b);
-                                        if constexpr (G::has_normals) {
-                                            __builtin_prefetch(reinterpret_cast<const char*>(rows.nx + p) + b);
-                                            __builtin_prefetch(reinterpret_cast<const char*>(rows.ny + p) + b);
-                                            __builtin_prefetch(reinterpret_cast<const char*>(rows.nz + p) + b);
-                                        }
-                                        if constexpr (G::has_ids) __builtin_prefetch(reinterpret_cast<const char*>(rows.id + p) + b);
-                                    }
-                                }
-                                light_plane_tile_vectors<T>(w, tx, te, [&](std::size_t x0) {
-                                    const std::size_t at = (y - ty + tr) * TW + (x0 - lo);
-                                    light_plane_uv_lane_groups<1, T>(x0, row_start(y - first_row), rows, &B.left[i * R],
-                                                                     &B.right[i * R], &B.radius[i * w], &inv_two_beta2[i * w],
-                                                                     wu + at, wv + at, TW, cos_threshold, &B.sum[i * w],
-                                                                     &B.wsum[i * w]);
-                                });
-                            }
-                            ty = ty_end;
-                        }
+                for (std::size_t x0 = 0; x0 < w; x0 += N)
+                    for (std::size_t y = block; y < block_end; ++y) {
+                        const std::size_t i = y - block;
+                        light_plane_lane_groups<1, Space == offset_space::tangent_plane, T>(
+                            std::min(x0, w - N), row_start(y - first_row), rows, &B.left[i * R], &B.right[i * R],
+                            &B.radius[i * w], &inv_two_beta2[i * w], light_normal, cos_threshold, &B.sum[i * w],
+                            &B.wsum[i * w]);
                     }
-                }
                 for (std::size_t y = block; y < block_end; ++y) {
                     const std::size_t i = y - block;
                     const auto C = rows.at(row_start(y - first_row));
@@ -1365,7 +1119,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 }
             }
 #if AAF_SIMD_BYTES > 0
-            if constexpr (light_plane && horizontal) {  // (the vertical pass's vectors run in blocks, above)
+            if constexpr (light_plane) {
                 if (w >= simd<T>::lanes) {  // the lanes' neighbours at ∓k: elements of `rows`, as in image space
                     const std::size_t reach = largest_radius(st.radius.data(), w);
                     ws.left.resize(reach + 1), ws.right.resize(reach + 1);
@@ -1377,34 +1131,9 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                             ws.right[k] = row_start(y + k < h ? y + k - first_row : nan_row);
                         }
                     }
-                    if constexpr (Space == offset_space::tangent_plane) {
-                        light_plane_row_vector<true, T>(w, centre_at, rows, ws.left.data(), ws.right.data(),
-                                                        st.radius.data(), st.inv_two_beta2.data(), light_normal,
-                                                        cos_threshold, st.sum.data(), st.wsum.data());
-                    } else {
-                        // Tiles of 16 centres (light_plane_origin), the last first (light_plane_tile_vectors): the
-                        // plane coordinates of the tile's elements and those within its reach, relative to the
-                        // tile's origin (horizontal: its row), then the tile's vectors of lanes.
-                        constexpr std::size_t TW = light_plane_tile_width<Dir>, N = simd<T>::lanes;
-                        for (std::size_t t = (w + TW - 1) / TW; t-- > 0;) {
-                            const std::size_t tx = t * TW, te = std::min(tx + TW, w), lo = std::min(tx, w - N);
-                            const std::size_t tr = largest_radius(&st.radius[lo], te - lo);
-                            const std::size_t n = te - lo + 2 * tr;
-                            if (st.window.size() < 2 * n) st.window.resize(2 * n);
-                            T* wu = st.window.data();
-                            T* wv = wu + n;
-                            const glm::vec<3, T> o = light_plane_origin<Dir, T>(
-                                [&](std::size_t px, std::size_t py) { return g.positions(px, py); }, tx, y, w, h);
-                            const std::size_t at = centre_at + lo - tr;  // the row's NaN margins cover the reach
-                            plane_coordinates_span(n, rows.px + at, rows.py + at, rows.pz + at, o, basis, wu, wv);
-                            light_plane_tile_vectors<T>(w, tx, te, [&](std::size_t x0) {
-                                light_plane_uv_lane_groups<1, T>(x0, centre_at, rows, ws.left.data(), ws.right.data(),
-                                                                 st.radius.data(), st.inv_two_beta2.data(),
-                                                                 wu + (x0 - lo) + tr, wv + (x0 - lo) + tr, 1,
-                                                                 cos_threshold, st.sum.data(), st.wsum.data());
-                            });
-                        }
-                    }
+                    light_plane_row_vector<Space == offset_space::tangent_plane, T>(
+                        w, centre_at, rows, ws.left.data(), ws.right.data(), st.radius.data(), st.inv_two_beta2.data(),
+                        light_normal, cos_threshold, st.sum.data(), st.wsum.data());
                     vector_done = true;
                 }
             }
@@ -1420,21 +1149,11 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                     return rows.at(row_start(k <= y ? y - k - first_row : nan_row) + x0);
                 };
                 if constexpr (light_plane) {
-                    if constexpr (Space == offset_space::light_plane) {  // each lane's tile origin
-                        for (std::size_t x = x0; x < x0 + n;) {
-                            constexpr std::size_t tw = light_plane_tile_width<Dir>;
-                            const std::size_t te = std::min(x - x % tw + tw, w);
-                            const glm::vec<3, T> o = light_plane_origin<Dir, T>(
-                                [&](std::size_t px, std::size_t py) { return g.positions(px, py); }, x, y, w, h);
-                            for (; x < std::min(te, x0 + n); ++x) st.ox[x] = o.x, st.oy[x] = o.y, st.oz[x] = o.z;
-                        }
-                    }
                     for (std::size_t k = 1; k <= steps; ++k) {
                         light_plane_taps<T, G::has_normals, G::has_ids, Space == offset_space::tangent_plane>(
-                            n, static_cast<T>(k), cos_threshold, &st.radius[x0], &st.inv_two_beta2[x0],
-                            &st.sum[x0], &st.wsum[x0], Cb.nx, Cb.ny, Cb.nz, Cb.id, Cb.px, Cb.py, Cb.pz, st.ox.data() + x0,
-                            st.oy.data() + x0, st.oz.data() + x0, basis, side(k, false), side(k, true), lok.data(),
-                            rok.data());
+                            n, static_cast<T>(k), cos_threshold, light_normal, &st.radius[x0], &st.inv_two_beta2[x0],
+                            &st.sum[x0], &st.wsum[x0], Cb.nx, Cb.ny, Cb.nz, Cb.id, Cb.px, Cb.py, Cb.pz, side(k, false),
+                            side(k, true), lok.data(), rok.data());
                     }
                 } else {
                     // Distances in groups; a group's last distances may pass `steps`, which every lane's radius
@@ -1721,7 +1440,6 @@ void vertical_pass_radii(const_image_view<T> beta, const_image_view<T> pixel_siz
 }
 
 #undef AAF_DETAIL_RESTRICT
-#undef AAF_DETAIL_NOINLINE
 
 }  // namespace detail
 
