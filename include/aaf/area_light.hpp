@@ -61,9 +61,6 @@ struct area_light {
         return two_sided ? side != T(0) : side > T(0);
     }
 
-    /// Weight of light point `y` for a receiver at `p` with unit normal `n`, under `weighting`.
-    /// Zero when `y` is below the receiver's horizon or `p` is behind a one-sided light.
-    /// (Computes the light's constants each call; light_sample_frame keeps them for many samples.)
     /// True when the plane through `p` with normal `n` (a receiver's tangent plane) cuts the light: some corner
     /// strictly above it and some strictly below, so part of the light is below the receiver's horizon and its
     /// visibility depends on the normal as well as on the occluders (issue 13, DEVIATIONS.md L2). A corner on
@@ -77,6 +74,10 @@ struct area_light {
         }
         return above && below;  // NaN compares false both ways
     }
+
+    /// Weight of light point `y` for a receiver at `p` with unit normal `n`, under `weighting`.
+    /// Zero when `y` is below the receiver's horizon or `p` is behind a one-sided light.
+    /// (Computes the light's constants each call; light_sample_frame keeps them for many samples.)
     [[nodiscard]] T sample_weight(light_weighting weighting, const vec3& p, const vec3& n, const vec3& y) const noexcept;
 };
 
