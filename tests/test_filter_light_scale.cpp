@@ -123,9 +123,7 @@ TEST_CASE("unfiltered_at_horizon: pixels whose light straddles their horizon kee
     aaf_test::analytic_scene<float> sc;
     sc.width = sc.height = 32;
     aaf_test::analytic_gbuffer<float> gb(sc);
-    const float t = 1.3962634f;
-    for (std::size_t y = 0; y < 32; ++y)
-        for (std::size_t x = 0; x < 16; ++x) gb.normals(x, y) = {std::sin(t), std::cos(t), 0};
+    gb.tilt_left_half_to_horizon();
     const aaf_test::span_tracer<float> tracer{&sc};
     aaf::frame_workspace<float> ws;
     aaf::frame_settings<float> s;

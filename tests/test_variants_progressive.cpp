@@ -150,9 +150,7 @@ TEST_CASE("progressive_shadow and render_sheared follow filter_settings::unfilte
     scene_t sc;
     sc.width = sc.height = 16;
     aaf_test::analytic_gbuffer<float> gb(sc);
-    const float t = 1.3962634f;
-    for (std::size_t y = 0; y < 16; ++y)
-        for (std::size_t x = 0; x < 8; ++x) gb.normals(x, y) = {std::sin(t), std::cos(t), 0};
+    gb.tilt_left_half_to_horizon();
     const aaf_test::span_tracer<float> tracer{&sc};
     const aaf::area_light<float> light = sc.area_light();
     aaf::image<float> out(16, 16);

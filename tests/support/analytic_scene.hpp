@@ -152,6 +152,13 @@ struct analytic_gbuffer {
     [[nodiscard]] aaf::gbuffer<T, aaf::const_image_view<std::uint32_t>> view_with_ids() const {
         return {positions.cview(), normals.cview(), pixel_size.cview(), ids.cview()};
     }
+    /// Tilts the left half's normals 80° about z: there the tangent planes of receivers near the light's
+    /// footprint cut the light (area_light::straddles_horizon); elsewhere the whole light stays above.
+    void tilt_left_half_to_horizon() {
+        const T t = T(1.3962634);  // 80°
+        for (std::size_t y = 0; y < normals.height(); ++y)
+            for (std::size_t x = 0; x < normals.width() / 2; ++x) normals(x, y) = {std::sin(t), std::cos(t), T(0)};
+    }
 };
 
 template <class A, class B>
