@@ -1048,24 +1048,6 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 for (std::size_t x0 = 0; x0 < w; x0 += N)
                     for (std::size_t y = block; y < block_end; ++y) {
                         const std::size_t i = y - block;
-                        // The row that enters the reach next: the walk's row stride defeats the hardware
-                        // prefetchers (as in image_vertical_columns); perf showed this loop stalled on
-                        // the neighbours' loads (issue 14).
-                        if (frame && y + reach + 4 < h) {
-                            const std::size_t p = row_start(y + reach + 4) + std::min(x0, w - N);
-                            for (std::size_t b = 0; b < N * sizeof(T); b += 64) {
-                                __builtin_prefetch(reinterpret_cast<const char*>(rows.v + p) + b);
-                                __builtin_prefetch(reinterpret_cast<const char*>(rows.px + p) + b);
-                                __builtin_prefetch(reinterpret_cast<const char*>(rows.py + p) + b);
-                                __builtin_prefetch(reinterpret_cast<const char*>(rows.pz + p) + b);
-                                if constexpr (G::has_normals) {
-                                    __builtin_prefetch(reinterpret_cast<const char*>(rows.nx + p) + b);
-                                    __builtin_prefetch(reinterpret_cast<const char*>(rows.ny + p) + b);
-                                    __builtin_prefetch(reinterpret_cast<const char*>(rows.nz + p) + b);
-                                }
-                                if constexpr (G::has_ids) __builtin_prefetch(reinterpret_cast<const char*>(rows.id + p) + b);
-                            }
-                        }
                         light_plane_lane_groups<1, Space == offset_space::tangent_plane, T>(
                             std::min(x0, w - N), row_start(y - first_row), rows, &B.left[i * R], &B.right[i * R],
                             &B.radius[i * w], &inv_two_beta2[i * w], light_normal, cos_threshold, &B.sum[i * w],
