@@ -9,8 +9,12 @@
 //
 // How each query maps onto Embree (single-ray forms, rtcIntersect1 / rtcOccluded1; scene built with
 // RTC_SCENE_FLAG_ROBUST, so rays through shared edges and vertices do not leak between triangles):
-//   nearest_occluder  rtcIntersect1 with tnear = the smallest normal float, tfar = the float below `length`:
-//                     Embree accepts tnear <= t <= tfar, which is the contract's open interval 0 < t < length.
+//   nearest_occluder  rtcIntersect1 with tnear = the smallest normal float, tfar = the float below
+//                     length·(1 − 2^-20): Embree accepts tnear <= t <= tfar, the contract's open interval
+//                     0 < t < length less a margin at the light end, because Embree's distances are not exact
+//                     (its AVX2 kernels put a hit at exactly t = length one ulp short of it, which counted the
+//                     light's own geometry as an occluder). An occluder within 2^-20 of the length from the
+//                     light point is not reported (the BVH, whose distances are exact there, reports it).
 //   occluded          rtcOccluded1 over the same interval. It reports no distance (Embree stops at any hit).
 //   occluder_span     two rtcIntersect1: the nearest hit from the receiver, then, when there is one, the nearest
 //                     hit from the light point back towards the receiver, which is the farthest hit of the
