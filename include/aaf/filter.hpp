@@ -1356,10 +1356,12 @@ void image_vertical_columns(const_image_view<T> src, image_view<T> dst, const_im
             }
         }
         // The centres' radii and m_1, w·h arrays walked down the column too (their loads were the stalls of
-        // this loop at AVX-512: CPU time 7.2 -> 6.9 ms per frame). Only with whole lines per row: with one
-        // AVX2 vector (half a line) per row the prefetches cost more than they saved (8.4 -> 9.1 ms).
-        if constexpr (Cols * N * sizeof(T) >= 128) {
-            constexpr std::size_t centre_ahead = 8;  // rows; 4 and 16 measured slower or no faster
+        // this loop: AVX-512, Zen 5: CPU time 7.2 -> 6.9 ms per frame; AVX2, Zen 3: the whole filter 49.8 ->
+        // 39.4 ms, docs/BENCHMARKS.md). With one AVX2 vector (half a line) per row a Zen 5 run at x86-64-v3
+        // had measured them slower (8.4 -> 9.1 ms, vertical pass); on an AVX2-only CPU they are the largest
+        // single gain measured.
+        {
+            constexpr std::size_t centre_ahead = 8;  // rows; 4 and 16 measured slower or no faster (AVX-512)
             for (std::size_t dy = 0; dy < Rows2 && y0 + centre_ahead + dy < h; ++dy) {
                 const std::size_t at = (y0 + centre_ahead + dy) * w + x0;
                 for (std::size_t b = 0; b < Cols * N * sizeof(T); b += 64) {
