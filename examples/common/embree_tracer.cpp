@@ -28,11 +28,9 @@ const char* error_name(RTCError e) noexcept {
 }
 
 /// The fraction of a segment's length at its light end where Embree's hits do not count (make_ray): 2^-20,
-/// 8 float ulps at 1, against Embree's 1-ulp error measured there.
+/// 8 to 16 float ulps, against Embree's 1-ulp error measured there.
 constexpr float light_end_margin = 0x1p-20f;
 
-/// The segment as an Embree ray over 0 < t < length·(1 − light_end_margin) (Embree accepts tnear <= t <= tfar);
-/// false when invalid.
 /// Embree's limit on origin and direction components (FLT_LARGE in its sources); past it a ray is invalid and
 /// Debian's build, which keeps Embree's assertions, aborts.
 constexpr float embree_large = 1.844e18f;
@@ -41,6 +39,8 @@ bool within_embree(const glm::vec3& v) noexcept {
     return std::abs(v.x) <= embree_large && std::abs(v.y) <= embree_large && std::abs(v.z) <= embree_large;
 }
 
+/// The segment as an Embree ray over 0 < t < length·(1 − light_end_margin) (Embree accepts tnear <= t <= tfar);
+/// false when invalid.
 bool make_ray(const aaf::shadow_segment<float>& s, RTCRay& ray) noexcept {
     if (!within_embree(s.origin) || !within_embree(s.direction) || s.direction == glm::vec3(0.0f) || std::isnan(s.length))
         return false;
