@@ -1360,14 +1360,12 @@ void image_vertical_columns(const_image_view<T> src, image_view<T> dst, const_im
         // 39.4 ms, docs/BENCHMARKS.md). With one AVX2 vector (half a line) per row a Zen 5 run at x86-64-v3
         // had measured them slower (8.4 -> 9.1 ms, vertical pass); on an AVX2-only CPU they are the largest
         // single gain measured.
-        {
-            constexpr std::size_t centre_ahead = 8;  // rows; 4 and 16 measured slower or no faster (AVX-512)
-            for (std::size_t dy = 0; dy < Rows2 && y0 + centre_ahead + dy < h; ++dy) {
-                const std::size_t at = (y0 + centre_ahead + dy) * w + x0;
-                for (std::size_t b = 0; b < Cols * N * sizeof(T); b += 64) {
-                    __builtin_prefetch(reinterpret_cast<const char*>(decay + at) + b);
-                    __builtin_prefetch(reinterpret_cast<const char*>(full_radius + at) + b);
-                }
+        constexpr std::size_t centre_ahead = 8;  // rows; 4 and 16 measured slower or no faster (AVX-512)
+        for (std::size_t dy = 0; dy < Rows2 && y0 + centre_ahead + dy < h; ++dy) {
+            const std::size_t at = (y0 + centre_ahead + dy) * w + x0;
+            for (std::size_t b = 0; b < Cols * N * sizeof(T); b += 64) {
+                __builtin_prefetch(reinterpret_cast<const char*>(decay + at) + b);
+                __builtin_prefetch(reinterpret_cast<const char*>(full_radius + at) + b);
             }
         }
         const auto row_of = [&](std::size_t j) { return y0 + j / Cols; };
