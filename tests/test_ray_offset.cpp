@@ -19,6 +19,7 @@
 #include <glm/vec3.hpp>
 
 #include <aaf/ray_offset.hpp>
+#include <aaf/sampler.hpp>
 
 #include "reference/reference_ray_offset.hpp"
 
@@ -211,5 +212,65 @@ TEMPLATE_TEST_CASE("the branch-free offset gives the bits of the case-by-case de
         for (int i = 0; i < 3; ++i) same = same && std::bit_cast<int_of<T>>(got[i]) == std::bit_cast<int_of<T>>(want[i]);
         INFO("p = " << p.x << ", " << p.y << ", " << p.z << "  n = " << n.x << ", " << n.y << ", " << n.z);
         REQUIRE(same);
+    }
+}
+
+namespace {
+
+/// shadow_ray_origins<T, L> against shadow_ray_origin point by point: the same bits (NaN as NaN).
+template <class T, std::size_t L>
+void check_origins_in_lanes(const std::vector<glm::vec<3, T>>& ps, const std::vector<glm::vec<3, T>>& ns, const glm::vec<3, T>& target,
+                            double fixed_offset) {
+    for (std::size_t first = 0; first + L <= ps.size(); first += L) {
+        T p[3 * L], n[3 * L], out[3 * L];
+        for (std::size_t k = 0; k < L; ++k)
+            for (std::size_t c = 0; c < 3; ++c) p[c * L + k] = ps[first + k][c], n[c * L + k] = ns[first + k][c];
+        aaf::detail::shadow_ray_origins<T, L>(p, n, target, fixed_offset, out);
+        for (std::size_t k = 0; k < L; ++k) {
+            const glm::vec<3, T> want = aaf::shadow_ray_origin(ps[first + k], ns[first + k], target, fixed_offset);
+            bool same = true;
+            for (std::size_t c = 0; c < 3; ++c) {
+                const T got = out[c * L + k];
+                same = same && (std::bit_cast<int_of<T>>(got) == std::bit_cast<int_of<T>>(want[c]) || (std::isnan(got) && std::isnan(want[c])));
+            }
+            INFO("lanes " << L << " fixed_offset " << fixed_offset << " p = " << ps[first + k].x << ", " << ps[first + k].y << ", "
+                          << ps[first + k].z << "  n = " << ns[first + k].x << ", " << ns[first + k].y << ", " << ns[first + k].z);
+            REQUIRE(same);
+        }
+    }
+}
+
+}  // namespace
+
+TEMPLATE_TEST_CASE("shadow ray origins computed in lanes give shadow_ray_origin's bits point by point", "[offset]", float, double) {
+    // gather_occlusion offsets a group of pixels at once, one per vector lane (detail::shadow_ray_origins, explicit
+    // vectors when the group is one vector wide); every case of offset_ray_origin, both orientations of the
+    // normal, and the fixed offsets, on points and normals that mix ordinary values with the extremes.
+    using T = TestType;
+    using vec3 = glm::vec<3, T>;
+    const T inf = std::numeric_limits<T>::infinity(), nan = std::numeric_limits<T>::quiet_NaN();
+    const T big = std::numeric_limits<T>::max(), tiny = std::numeric_limits<T>::denorm_min();
+    const T specials[] = {T(0), -T(0), tiny, -tiny, T(1.0 / 32.0), -T(1.0 / 32.0), std::nextafter(T(1.0 / 32.0), T(0)),
+                          T(1), T(-1), T(0.5), T(-3), T(1.5), big, -big, inf, -inf, nan, T(1e-3), T(1e5), T(-2e-6)};
+    std::mt19937 rng(19u);
+    std::uniform_int_distribution<int> pick(0, static_cast<int>(std::size(specials)) - 1), mode(0, 3);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    const auto draw = [&](bool normal) {
+        vec3 v;
+        for (int i = 0; i < 3; ++i) {
+            const int m = mode(rng);
+            v[i] = m == 0 ? specials[pick(rng)]
+                   : m == 1 ? T(u(rng) * (normal ? 3.0 : 0.1))
+                   : m == 2 ? T(u(rng))
+                            : T(u(rng) * std::pow(10.0, static_cast<int>(u(rng) * 30)));
+        }
+        return normal && mode(rng) < 2 ? vec3(glm::normalize(glm::dvec3(u(rng), u(rng), u(rng)) + glm::dvec3(0, 0, 1e-3))) : v;
+    };
+    std::vector<vec3> ps, ns;
+    for (int k = 0; k < 48000; ++k) ps.push_back(draw(false)), ns.push_back(draw(true));
+    const vec3 target(T(0.3), T(2), T(-0.7));
+    for (const double fixed : {-1.0, 0.0, 0.01}) {
+        check_origins_in_lanes<T, aaf::detail::sample_lanes<T>>(ps, ns, target, fixed);  // the explicit vectors
+        check_origins_in_lanes<T, 3>(ps, ns, target, fixed);                            // the point-by-point form
     }
 }

@@ -205,6 +205,41 @@ TEMPLATE_TEST_CASE("jittered points never round onto a neighbouring stratum", "[
     CHECK(bad == 0u);
 }
 
+TEMPLATE_TEST_CASE("a sample plan's groups give generate_samples' bits for every pixel of the group", "[sampler]", float, double) {
+    // gather_occlusion draws a group of pixels at once, one per vector lane (sample_plan::generate_group): every
+    // pattern and count, and the keys whose jitter rounds onto a stratum's edge (the test above), each in a
+    // different lane of its group, so that the edge rule runs on one lane of a group and not the others.
+    using T = TestType;
+    constexpr std::uint32_t L = aaf::detail::sample_lanes<T>;
+    const std::uint32_t counts[] = {9, 1, 2, 3, 7, 13, 16, 17, 31, 37, 63, 64, 65, 100, 9};
+    const std::uint32_t edge_keys[] = {63976, 6707, 171302, 32939, 39470, 87287};
+    aaf::detail::sample_plan<T> plan;
+    std::vector<T> u, v;
+    for (const std::uint32_t n : counts) {
+        for (const aaf::sample_pattern p : all_patterns) {
+            plan.prepare(p, n);
+            u.assign(std::size_t{n} * L, T(-1)), v.assign(std::size_t{n} * L, T(-1));
+            for (std::uint32_t group = 0; group < 8; ++group) {
+                std::vector<aaf::sample_key> keys;
+                std::uint32_t seeds[L];
+                for (std::uint32_t k = 0; k < L; ++k) {
+                    const std::uint32_t x = k == group % L ? edge_keys[group % std::size(edge_keys)] : group * 97U + k * 5U;
+                    keys.push_back({x, x >> 8, 0, 0, 1});
+                    seeds[k] = aaf::detail::key_hash(keys.back());
+                }
+                plan.generate_group(seeds, u.data(), v.data());
+                for (std::uint32_t k = 0; k < L; ++k) {
+                    const auto expected = samples<T>(p, keys[k], n);
+                    std::vector<glm::vec<2, T>> got(n);
+                    for (std::uint32_t i = 0; i < n; ++i) got[i] = {u[i * L + k], v[i * L + k]};
+                    INFO(aaf::to_string(p) << " n = " << n << " group " << group << " lane " << k);
+                    REQUIRE(identical(got, expected));
+                }
+            }
+        }
+    }
+}
+
 TEMPLATE_TEST_CASE("low_discrepancy power-of-two prefixes are (0,m,2)-nets in base 2", "[sampler]", float, double) {
     using T = TestType;
     for (std::uint32_t m = 0; m <= 8; ++m) {

@@ -140,7 +140,7 @@ struct pixel_batch {
         if (segments.size() >= n) return;  // grows a few times per thread, then reused
         segments.resize(n), weights.resize(n), hits.resize(n), visible.resize(n);
     }
-    void reserve_samples(std::size_t padded) {
+    void reserve_samples(std::size_t padded) {  // values per array: a pixel's padded count, or a group's count × lanes
         if (lengths.size() >= padded) return;
         for (auto* a : {&u, &v, &dir_x, &dir_y, &dir_z, &lengths, &sample_weights}) a->resize(padded);
         keep.resize(padded);
@@ -151,21 +151,45 @@ struct pixel_batch {
 /// number of vectors): light point y, weight (light_sample_frame::weight's tests as 0/1 products: the loop
 /// body must be one block), the unnormalised segment y − origin and its squared length. Values, not
 /// references, and restrict-qualified arrays, so that nothing the loop reads can alias what it writes.
+/// uniform_sample is one sample's, the one expression of uniform_samples and uniform_samples_group.
+template <class T, bool TwoSided>
+void uniform_sample(T su, T sv, const area_light<T>& light, glm::vec<3, T> p, glm::vec<3, T> n, glm::vec<3, T> light_normal,
+                    glm::vec<3, T> origin, T& to_x, T& to_y, T& to_z, T& length2, T& weight) noexcept {
+    const glm::vec<3, T> y = light.point(su, sv);
+    const glm::vec<3, T> to_light = y - p;
+    const T cos_r = glm::dot(n, to_light);
+    const T cos_l = -glm::dot(light_normal, to_light);
+    const T faces = TwoSided ? static_cast<T>(!(cos_l == T(0))) : static_cast<T>(cos_l > T(0));
+    weight = static_cast<T>(cos_r > T(0)) * faces;  // 1 where both hold, else 0
+    const glm::vec<3, T> to = y - origin;
+    to_x = to.x, to_y = to.y, to_z = to.z, length2 = glm::dot(to, to);
+}
+
 template <class T, bool TwoSided>
 void uniform_samples(const T* __restrict su, const T* __restrict sv, std::uint32_t padded, area_light<T> light,
                      glm::vec<3, T> p, glm::vec<3, T> n, glm::vec<3, T> light_normal, glm::vec<3, T> origin,
                      T* __restrict to_x, T* __restrict to_y, T* __restrict to_z, T* __restrict length2,
                      T* __restrict weight) noexcept {
-    for (std::uint32_t i = 0; i < padded; ++i) {
-        const glm::vec<3, T> y = light.point(su[i], sv[i]);
-        const glm::vec<3, T> to_light = y - p;
-        const T cos_r = glm::dot(n, to_light);
-        const T cos_l = -glm::dot(light_normal, to_light);
-        const T faces = TwoSided ? static_cast<T>(!(cos_l == T(0))) : static_cast<T>(cos_l > T(0));
-        weight[i] = static_cast<T>(cos_r > T(0)) * faces;  // 1 where both hold, else 0
-        const glm::vec<3, T> to = y - origin;
-        to_x[i] = to.x, to_y[i] = to.y, to_z[i] = to.z, length2[i] = glm::dot(to, to);
-    }
+    for (std::uint32_t i = 0; i < padded; ++i)
+        uniform_sample<T, TwoSided>(su[i], sv[i], light, p, n, light_normal, origin, to_x[i], to_y[i], to_z[i], length2[i], weight[i]);
+}
+
+/// uniform_samples for a group of L pixels, one per lane: sample i of pixel k at index i·L + k; `lanes` holds
+/// the pixels' receivers, normals and origins by component (lanes[c·L + k] for c = p.x, p.y, p.z, n.x, ...,
+/// origin.z), in one plain array so that the compiler sees every lane's loads as whole vectors. Not inlined:
+/// inlined into gather_rows, GCC 12 no longer vectorised the loop (it could not type the loads from
+/// `lanes`), and the call is made once per group.
+template <class T, bool TwoSided, std::uint32_t L>
+[[gnu::noinline]] void uniform_samples_group(const T* __restrict su, const T* __restrict sv, std::uint32_t count, area_light<T> light,
+                           const T* __restrict lanes, glm::vec<3, T> light_normal, T* __restrict to_x, T* __restrict to_y,
+                           T* __restrict to_z, T* __restrict length2, T* __restrict weight) noexcept {
+    for (std::size_t j = 0; j < std::size_t{count} * L; j += L)  // j: the index of the group's sample i, lane 0
+        for (std::size_t k = 0; k < L; ++k) {
+            const T* c = lanes + k;
+            uniform_sample<T, TwoSided>(su[j + k], sv[j + k], light, {c[0], c[L], c[2 * L]}, {c[3 * L], c[4 * L], c[5 * L]},
+                                        light_normal, {c[6 * L], c[7 * L], c[8 * L]}, to_x[j + k], to_y[j + k], to_z[j + k],
+                                        length2[j + k], weight[j + k]);
+        }
 }
 
 /// draw_pixel's directions: (dx, dy, dz) divided by their length, and keep[i] = 1 where the sample can be
@@ -182,13 +206,27 @@ void normalize_samples(T* __restrict dx, T* __restrict dy, T* __restrict dz, con
     }
 }
 
-/// A pixel's samples as draw_pixel leaves them in its batch's per-sample arrays.
+/// A pixel's samples as draw_pixel (or draw_pixel_group) leaves them in its batch's per-sample arrays:
+/// sample i at index first + i·stride.
 template <class T>
 struct drawn_pixel {
-    glm::vec<3, T> origin;  ///< where every segment starts (the receiver, offset)
-    T d1;                   ///< the receiver's distance to the light's plane, from `origin`
-    std::uint32_t count;    ///< samples drawn
+    glm::vec<3, T> origin;     ///< where every segment starts (the receiver, offset)
+    T d1;                      ///< the receiver's distance to the light's plane, from `origin`
+    std::uint32_t count;       ///< samples drawn
+    std::uint32_t first = 0;   ///< index of sample 0 (the pixel's lane in a group)
+    std::uint32_t stride = 1;  ///< 1 for one pixel, the group's lanes for a group
+
+    [[nodiscard]] std::size_t at(std::uint32_t i) const noexcept { return first + static_cast<std::size_t>(i) * stride; }
 };
+
+/// A receiver's shadow-ray origin, offset to the light's side of the surface (Wächter–Binder: no epsilon
+/// to tune), and d1 from that same point, so that d2 = d1·(L − t)/L is exact (t, L are from the origin).
+template <class T>
+[[nodiscard]] std::pair<glm::vec<3, T>, T> pixel_origin(const glm::vec<3, T>& p, const glm::vec<3, T>& n, const area_light<T>& light,
+                                                        const light_sample_frame<T>& frame, double origin_offset) noexcept {
+    const glm::vec<3, T> origin = shadow_ray_origin(p, n, frame.center, origin_offset);
+    return {origin, std::abs(glm::dot(origin - light.corner, frame.normal))};
+}
 
 /// Draws the samples of `batch.plan` (prepared for this pixel's count and the pass's pattern) for the pixel
 /// whose sample key hashes to `seed` (key_hash of its pixel_key): per sample i < count, the unit direction
@@ -202,10 +240,7 @@ drawn_pixel<T> draw_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, cons
     const std::uint32_t count = batch.plan.size(), padded = batch.plan.padded();
     batch.reserve_samples(padded);
     const auto [su, sv] = batch.plan.generate(seed, batch.u.data(), batch.v.data());
-    // Offset the origin to the light's side of the surface (Wächter–Binder: no epsilon to tune).
-    const glm::vec<3, T> origin = shadow_ray_origin(p, n, frame.center, origin_offset);
-    // d1 from the same point the segments start at, so d2 = d1·(L − t)/L is exact (t, L are from `origin`).
-    const T d1 = std::abs(glm::dot(origin - light.corner, frame.normal));
+    const auto [origin, d1] = pixel_origin(p, n, light, frame, origin_offset);
     T* const dx = batch.dir_x.data();
     T* const dy = batch.dir_y.data();
     T* const dz = batch.dir_z.data();
@@ -228,6 +263,55 @@ drawn_pixel<T> draw_pixel(const glm::vec<3, T>& p, const glm::vec<3, T>& n, cons
     return {origin, d1, count};
 }
 
+/// Pixels per group of draw_pixel_group: one per vector lane (1 without explicit vectors: no groups).
+template <class T>
+inline constexpr std::uint32_t group_pixels = sample_lanes<T>;
+
+/// draw_pixel for the group_pixels<T> pixels of row y from column x on, one per vector lane, for the uniform
+/// weighting, with key hashes seeds[k]; out[k] says where pixel k's samples are. Returns a bit per pixel
+/// with a surface (finite position and normal); the others are drawn as stand-ins and must not be traced.
+/// Every lane's arithmetic is draw_pixel's, so each pixel gets draw_pixel's bits; what changes is that no
+/// lane is padding (9 samples fill 9 vectors per 8 pixels, not 16) and the per-pixel steps run in lanes.
+template <class T>
+std::uint32_t draw_pixel_group(const_image_view<glm::vec<3, T>> positions, const_image_view<glm::vec<3, T>> normals, std::size_t x,
+                               std::size_t y, const area_light<T>& light, const light_sample_frame<T>& frame, double origin_offset,
+                               const std::uint32_t* seeds, pixel_batch<T>& batch, drawn_pixel<T>* out) {
+    constexpr std::uint32_t L = group_pixels<T>;
+    static_assert(L <= 32, "one bit per pixel of the group");
+    const std::uint32_t count = batch.plan.size(), values = count * L;
+    batch.reserve_samples(values);
+    T lanes[9 * L];  // receivers, normals and origins by component (uniform_samples_group)
+    std::uint32_t surfaces = 0;
+    for (std::uint32_t k = 0; k < L; ++k) {
+        glm::vec<3, T> p = positions(x + k, y), n = normals(x + k, y);
+        if (std::isfinite(p.x + p.y + p.z) && std::isfinite(n.x + n.y + n.z)) {
+            surfaces |= 1U << k;
+            n = receiver_normal(n, p, frame.center);
+        } else {
+            p = frame.center + frame.normal, n = frame.normal;  // a stand-in: finite, off the light
+        }
+        for (std::uint32_t c = 0; c < 3; ++c) lanes[c * L + k] = p[c], lanes[(3 + c) * L + k] = n[c];
+    }
+    shadow_ray_origins<T, L>(lanes, lanes + 3 * L, frame.center, origin_offset, lanes + 6 * L);  // pixel_origin's, in lanes
+    for (std::uint32_t k = 0; k < L; ++k) {
+        const glm::vec<3, T> origin(lanes[6 * L + k], lanes[7 * L + k], lanes[8 * L + k]);
+        out[k] = {origin, std::abs(glm::dot(origin - light.corner, frame.normal)), count, k, L};
+    }
+    T* const u = batch.u.data();
+    T* const v = batch.v.data();
+    batch.plan.generate_group(seeds, u, v);
+    T* const dx = batch.dir_x.data();
+    T* const dy = batch.dir_y.data();
+    T* const dz = batch.dir_z.data();
+    T* const len = batch.lengths.data();
+    T* const wgt = batch.sample_weights.data();
+    if (frame.two_sided) uniform_samples_group<T, true, L>(u, v, count, light, lanes, frame.normal, dx, dy, dz, len, wgt);
+    else uniform_samples_group<T, false, L>(u, v, count, light, lanes, frame.normal, dx, dy, dz, len, wgt);
+    sqrt_each(len, values);  // a whole number of vectors
+    normalize_samples(dx, dy, dz, len, wgt, batch.keep.data(), values);
+    return surfaces;
+}
+
 /// Appends the traceable segments of the pixel draw_pixel left in `batch` to the batch's pending segments
 /// (traced by flush_batch).
 template <class T>
@@ -242,9 +326,10 @@ void append_pixel(const drawn_pixel<T>& d, occlusion_stats<T>& stats, pixel_batc
     shadow_segment<T>* const segments = batch.segments.data();
     T* const weights = batch.weights.data();
     for (std::uint32_t i = 0; i < d.count; ++i) {
-        segments[traced] = {d.origin, {dx[i], dy[i], dz[i]}, len[i]};
-        weights[traced] = wgt[i];
-        traced += keep[i];
+        const std::size_t j = d.at(i);
+        segments[traced] = {d.origin, {dx[j], dy[j], dz[j]}, len[j]};
+        weights[traced] = wgt[j];
+        traced += keep[j];
     }
     const std::uint32_t skipped = d.count - static_cast<std::uint32_t>(traced - batch.size);
     batch.pixels.push_back({&stats, d.d1, traced, skipped});
@@ -307,17 +392,18 @@ std::uint64_t trace_pixel(const Tracer& tracer, const drawn_pixel<T>& d, occlusi
     occlusion_stats<T> stats = out;
     std::uint32_t traced = 0;
     for (std::uint32_t i = 0; i < d.count; ++i) {
-        if (keep[i] == 0) continue;
+        const std::size_t j = d.at(i);
+        if (keep[j] == 0) continue;
         ++traced;
-        const shadow_segment<T> segment{d.origin, {dx[i], dy[i], dz[i]}, len[i]};
+        const shadow_segment<T> segment{d.origin, {dx[j], dy[j], dz[j]}, len[j]};
         if constexpr (Query == shadow_query::visibility) {
             occluder_span<T> hit{};
             visibility_hit visible = visibility_hit::visible;
             trace_visibility<T>(tracer, std::span<const shadow_segment<T>>(&segment, 1), std::span<occluder_span<T>>(&hit, 1),
                                 std::span<visibility_hit>(&visible, 1), &batch.trace);
-            record_visibility(stats, wgt[i], visible);
+            record_visibility(stats, wgt[j], visible);
         } else {
-            stats.add_sample(wgt[i], d.d1, len[i], trace_one<T>(tracer, segment));
+            stats.add_sample(wgt[j], d.d1, len[j], trace_one<T>(tracer, segment));
         }
     }
     stats.samples += d.count - traced;  // the skipped ones, counted after the traced ones as in flush_batch
@@ -369,6 +455,12 @@ std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_
     // Any other tracer gets one call per segment as each pixel's samples are drawn (trace_pixel).
     constexpr bool batched = uses_batches<Tracer, T>(Query == shadow_query::visibility);
     [[maybe_unused]] const std::size_t batch_target = s.batch_rays;
+    // Pixels that all draw the same count with the uniform weighting are drawn in groups, one pixel per
+    // vector lane (draw_pixel_group: the same bits, no padding lanes), up to counts where padding is cheap.
+    constexpr std::uint32_t G = group_pixels<T>;
+    const std::uint32_t group_count = std::min(samples_per_pixel, s.max_samples);
+    const bool grouped = G > 1 && sample_counts.empty() && s.weighting == light_weighting::uniform && group_count != 0 &&
+                         group_count <= 256;
     exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
         pixel_batch<T> batch;
         std::uint64_t local = 0;
@@ -378,7 +470,26 @@ std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_
             for (std::size_t x0 = 0; x0 < w; x0 += run) {
                 const auto m = static_cast<std::uint32_t>(std::min<std::size_t>(run, w - x0));
                 pixel_key_hashes(gb.region, x0, y, m, pass, s.light_index, s.frame_seed, seeds);
-                for (std::uint32_t k = 0; k < m; ++k) {
+                std::uint32_t k = 0;
+                if (grouped) {
+                    batch.plan.prepare(s.pattern, group_count);
+                    for (; k + G <= m; k += G) {  // G pixels at a time, one per lane (the rest one at a time below)
+                        drawn_pixel<T> d[G];
+                        const std::uint32_t surfaces =
+                            draw_pixel_group(gb.positions, gb.normals, x0 + k, y, light, frame, s.origin_offset, seeds + k, batch, d);
+                        for (std::uint32_t g = 0; g < G; ++g) {
+                            if ((surfaces >> g & 1U) == 0) continue;
+                            occlusion_stats<T>& out = stats(x0 + k + g, y);
+                            if constexpr (!batched) {
+                                local += trace_pixel<Query>(tracer, d[g], out, batch);
+                            } else {
+                                append_pixel(d[g], out, batch);
+                                if (batch.size >= batch_target) local += flush_batch<Query>(tracer, batch);
+                            }
+                        }
+                    }
+                }
+                for (; k < m; ++k) {
                     const std::size_t x = x0 + k;
                     const std::uint32_t count = sample_counts.empty() ? samples_per_pixel : sample_counts(x, y);
                     if (count == 0) continue;
@@ -444,6 +555,7 @@ std::uint64_t gather_visibility(const gbuffer<T, Ids>& gb, const area_light<T>& 
 // besides calling the tracer.
 #define AAF_DETAIL_GATHER_INSTANTIATIONS(KEYWORD, T)                                                            \
     AAF_DETAIL_INSTANTIATE(KEYWORD, detail::draw_pixel<T>)                                                      \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::draw_pixel_group<T>)                                                \
     AAF_DETAIL_INSTANTIATE(KEYWORD, detail::append_pixel<T>)                                                    \
     AAF_DETAIL_INSTANTIATE(KEYWORD, detail::require_gather_inputs<T, no_guide>)                                 \
     AAF_DETAIL_INSTANTIATE(KEYWORD, detail::require_gather_inputs<T, const_image_view<std::uint32_t>>)
