@@ -53,6 +53,35 @@ std::vector<glm::vec<3, T>> test_normals() {
     return ns;
 }
 
+/// Vectors whose components mix the extremes (±0, denormals, ±1/32 and its neighbour, the largest finite
+/// value, ±inf, NaN) with ordinary values at every scale: draw(false) for points, draw(true) for normals.
+template <class T>
+class extreme_vectors {
+public:
+    explicit extreme_vectors(unsigned seed) : rng_(seed) {}
+    glm::vec<3, T> draw(bool normal) {
+        glm::vec<3, T> v;
+        for (int i = 0; i < 3; ++i) {
+            const int m = mode_(rng_);
+            v[i] = m == 0 ? specials_[pick_(rng_)]
+                   : m == 1 ? T(u_(rng_) * (normal ? 3.0 : 0.1))
+                   : m == 2 ? T(u_(rng_))
+                            : T(u_(rng_) * std::pow(10.0, static_cast<int>(u_(rng_) * 30)));
+        }
+        return v;
+    }
+    double uniform() { return u_(rng_); }  ///< in [−1, 1)
+
+private:
+    static constexpr T inf = std::numeric_limits<T>::infinity(), nan = std::numeric_limits<T>::quiet_NaN();
+    static constexpr T big = std::numeric_limits<T>::max(), tiny = std::numeric_limits<T>::denorm_min();
+    const T specials_[20] = {T(0), -T(0), tiny, -tiny, T(1.0 / 32.0), -T(1.0 / 32.0), std::nextafter(T(1.0 / 32.0), T(0)),
+                             T(1), T(-1), T(0.5), T(-3), T(1.5), big, -big, inf, -inf, nan, T(1e-3), T(1e5), T(-2e-6)};
+    std::mt19937 rng_;
+    std::uniform_int_distribution<int> pick_{0, 19}, mode_{0, 3};
+    std::uniform_real_distribution<double> u_{-1.0, 1.0};
+};
+
 }  // namespace
 
 TEMPLATE_TEST_CASE("the offset point lies on the normal's side at every scale", "[offset]", float, double) {
@@ -187,26 +216,9 @@ TEMPLATE_TEST_CASE("the branch-free offset gives the bits of the case-by-case de
     // and neighbouring pixels take different cases); the reference takes one branch per case.
     using T = TestType;
     using vec3 = glm::vec<3, T>;
-    const T inf = std::numeric_limits<T>::infinity(), nan = std::numeric_limits<T>::quiet_NaN();
-    const T big = std::numeric_limits<T>::max(), tiny = std::numeric_limits<T>::denorm_min();
-    const T specials[] = {T(0), -T(0), tiny, -tiny, T(1.0 / 32.0), -T(1.0 / 32.0), std::nextafter(T(1.0 / 32.0), T(0)),
-                          T(1), T(-1), T(0.5), T(-3), big, -big, inf, -inf, nan, T(1e-3), T(1e5)};
-    std::mt19937 rng(7u);
-    std::uniform_int_distribution<int> pick(0, static_cast<int>(std::size(specials)) - 1), mode(0, 3);
-    std::uniform_real_distribution<double> u(-1.0, 1.0);
-    const auto draw = [&](bool normal) {
-        vec3 v;
-        for (int i = 0; i < 3; ++i) {
-            const int m = mode(rng);
-            v[i] = m == 0 ? specials[pick(rng)]
-                   : m == 1 ? T(u(rng) * (normal ? 3.0 : 0.1))
-                   : m == 2 ? T(u(rng))
-                            : T(u(rng) * std::pow(10.0, static_cast<int>(u(rng) * 30)));
-        }
-        return v;
-    };
+    extreme_vectors<T> vectors(7u);
     for (int k = 0; k < 200000; ++k) {
-        const vec3 p = draw(false), n = draw(true);
+        const vec3 p = vectors.draw(false), n = vectors.draw(true);
         const vec3 got = aaf::offset_ray_origin(p, n), want = aaf_ref::offset_ray_origin(p, n);
         bool same = true;
         for (int i = 0; i < 3; ++i) same = same && std::bit_cast<int_of<T>>(got[i]) == std::bit_cast<int_of<T>>(want[i]);
@@ -248,26 +260,13 @@ TEMPLATE_TEST_CASE("shadow ray origins computed in lanes give shadow_ray_origin'
     // normal, and the fixed offsets, on points and normals that mix ordinary values with the extremes.
     using T = TestType;
     using vec3 = glm::vec<3, T>;
-    const T inf = std::numeric_limits<T>::infinity(), nan = std::numeric_limits<T>::quiet_NaN();
-    const T big = std::numeric_limits<T>::max(), tiny = std::numeric_limits<T>::denorm_min();
-    const T specials[] = {T(0), -T(0), tiny, -tiny, T(1.0 / 32.0), -T(1.0 / 32.0), std::nextafter(T(1.0 / 32.0), T(0)),
-                          T(1), T(-1), T(0.5), T(-3), T(1.5), big, -big, inf, -inf, nan, T(1e-3), T(1e5), T(-2e-6)};
-    std::mt19937 rng(19u);
-    std::uniform_int_distribution<int> pick(0, static_cast<int>(std::size(specials)) - 1), mode(0, 3);
-    std::uniform_real_distribution<double> u(-1.0, 1.0);
-    const auto draw = [&](bool normal) {
-        vec3 v;
-        for (int i = 0; i < 3; ++i) {
-            const int m = mode(rng);
-            v[i] = m == 0 ? specials[pick(rng)]
-                   : m == 1 ? T(u(rng) * (normal ? 3.0 : 0.1))
-                   : m == 2 ? T(u(rng))
-                            : T(u(rng) * std::pow(10.0, static_cast<int>(u(rng) * 30)));
-        }
-        return normal && mode(rng) < 2 ? vec3(glm::normalize(glm::dvec3(u(rng), u(rng), u(rng)) + glm::dvec3(0, 0, 1e-3))) : v;
+    extreme_vectors<T> vectors(19u);
+    const auto normal = [&] {  // half of them unit normals, as a G-buffer's
+        return vectors.uniform() < 0 ? vectors.draw(true)
+                                     : vec3(glm::normalize(glm::dvec3(vectors.uniform(), vectors.uniform(), vectors.uniform() + 1e-3)));
     };
     std::vector<vec3> ps, ns;
-    for (int k = 0; k < 48000; ++k) ps.push_back(draw(false)), ns.push_back(draw(true));
+    for (int k = 0; k < 48000; ++k) ps.push_back(vectors.draw(false)), ns.push_back(normal());
     const vec3 target(T(0.3), T(2), T(-0.7));
     for (const double fixed : {-1.0, 0.0, 0.01}) {
         check_origins_in_lanes<T, aaf::detail::sample_lanes<T>>(ps, ns, target, fixed);  // the explicit vectors
