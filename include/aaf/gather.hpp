@@ -3,6 +3,7 @@
 // Gathering occlusion statistics: sampler → shadow segments → the user's tracer → occlusion_stats.
 
 #include <algorithm>
+#include <bit>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -102,9 +103,11 @@ void require_light(const char* fn, const area_light<T>& light) {
 /// square underflows) is an orientation-less receiver — hair, particles, a volume's sample point — and
 /// faces the light's centre: every light point within 90° of that direction counts. (Without this, no
 /// sample would be above its horizon and the pixel would silently get no light.)
+/// Always inlined (`inline` too: GCC wants it with the attribute): draw_next calls it per pixel of a group,
+/// and as a call it measured ~1 ns per sample.
 template <class T>
-[[nodiscard]] glm::vec<3, T> receiver_normal(const glm::vec<3, T>& n, const glm::vec<3, T>& p,
-                                             const glm::vec<3, T>& light_center) noexcept {
+[[nodiscard, gnu::always_inline]] inline glm::vec<3, T> receiver_normal(const glm::vec<3, T>& n, const glm::vec<3, T>& p,
+                                                                         const glm::vec<3, T>& light_center) noexcept {
     if (glm::dot(n, n) != T(0)) return n;
     const glm::vec<3, T> to = light_center - p;
     const T len = glm::length(to);
@@ -438,8 +441,60 @@ void require_gather_inputs(const char* fn, const gbuffer<T, Ids>& gb, const area
         throw_invalid(fn, "`samples_per_pixel` exceeds settings.max_samples");
 }
 
+/// What drawing a pass's pixels needs besides the batch, none of it dependent on the tracer.
+template <class T>
+struct pass_pixels {
+    const_image_view<glm::vec<3, T>> positions, normals;
+    const_image_view<std::uint32_t> sample_counts;  ///< empty: samples_per_pixel for every pixel
+    const area_light<T>* light;
+    const light_sample_frame<T>* frame;
+    const sampling_settings* settings;
+    std::uint32_t samples_per_pixel;
+    /// Non-zero: every pixel draws this many samples with the uniform weighting, so whole groups of
+    /// group_pixels<T> pixels are drawn at once (draw_pixel_group: the same bits, no padding lanes); 0: one
+    /// pixel at a time. Up to counts where a pixel's padding lanes cost little.
+    std::uint32_t group_count;
+};
+
+template <class T>
+[[nodiscard]] pass_pixels<T> make_pass_pixels(const_image_view<glm::vec<3, T>> positions, const_image_view<glm::vec<3, T>> normals,
+                                              const_image_view<std::uint32_t> sample_counts, const area_light<T>& light,
+                                              const light_sample_frame<T>& frame, const sampling_settings& s,
+                                              std::uint32_t samples_per_pixel) noexcept {
+    const std::uint32_t count = std::min(samples_per_pixel, s.max_samples);
+    const bool grouped = group_pixels<T> > 1 && sample_counts.empty() && s.weighting == light_weighting::uniform && count <= 256;
+    return {positions, normals, sample_counts, &light, &frame, &s, samples_per_pixel, grouped ? count : 0U};
+}
+
+/// Draws the next pixels of row y from column x0 + k (k < m; seeds[k] is that pixel's key hash): a whole group
+/// when the pass draws groups and one fits before m, else one pixel. Advances k past them; d[i] says where
+/// the samples of the i-th of them are, and bit i of the result is set when it is to be traced (it has a
+/// surface and samples).
+template <class T>
+std::uint32_t draw_next(const pass_pixels<T>& r, std::size_t x0, std::size_t y, std::uint32_t m, const std::uint32_t* seeds,
+                        std::uint32_t& k, pixel_batch<T>& batch, drawn_pixel<T>* d) {
+    constexpr std::uint32_t G = group_pixels<T>;
+    const sampling_settings& s = *r.settings;
+    if (r.group_count != 0 && k + G <= m) {
+        batch.plan.prepare(s.pattern, r.group_count);
+        const std::uint32_t first = k;
+        k += G;
+        return draw_pixel_group(r.positions, r.normals, x0 + first, y, *r.light, *r.frame, s.origin_offset, seeds + first, batch, d);
+    }
+    const std::uint32_t column = k++;
+    const std::size_t x = x0 + column;
+    const std::uint32_t count = r.sample_counts.empty() ? r.samples_per_pixel : r.sample_counts(x, y);
+    if (count == 0) return 0;
+    const glm::vec<3, T> p = r.positions(x, y);
+    const glm::vec<3, T> n = r.normals(x, y);
+    if (!std::isfinite(p.x + p.y + p.z) || !std::isfinite(n.x + n.y + n.z)) return 0;
+    batch.plan.prepare(s.pattern, std::min(count, s.max_samples));
+    d[0] = draw_pixel(p, receiver_normal(n, p, r.frame->center), *r.light, *r.frame, s.origin_offset, seeds[column], batch);
+    return 1;
+}
+
 /// The one part of a frame compiled per tracer type: the rows' samples traced by `tracer`. Everything
-/// that does not call the tracer (checks, sample generation and segments: draw_pixel, append_pixel) is compiled per
+/// that does not call the tracer (checks, sample generation and segments: draw_next, append_pixel) is compiled per
 /// pixel type only, and the executor is taken by reference (executor_ref).
 template <shadow_query Query, class T, class Ids, class Tracer>
 std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_light<T>& light, const Tracer& tracer,
@@ -455,12 +510,8 @@ std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_
     // Any other tracer gets one call per segment as each pixel's samples are drawn (trace_pixel).
     constexpr bool batched = uses_batches<Tracer, T>(Query == shadow_query::visibility);
     [[maybe_unused]] const std::size_t batch_target = s.batch_rays;
-    // Pixels that all draw the same count with the uniform weighting are drawn in groups, one pixel per
-    // vector lane (draw_pixel_group: the same bits, no padding lanes), up to counts where padding is cheap.
     constexpr std::uint32_t G = group_pixels<T>;
-    const std::uint32_t group_count = std::min(samples_per_pixel, s.max_samples);
-    const bool grouped = G > 1 && sample_counts.empty() && s.weighting == light_weighting::uniform && group_count != 0 &&
-                         group_count <= 256;
+    const pass_pixels<T> rows = make_pass_pixels(gb.positions, gb.normals, sample_counts, light, frame, s, samples_per_pixel);
     exec.parallel_for(h, [&](std::size_t y0, std::size_t y1) {
         pixel_batch<T> batch;
         std::uint64_t local = 0;
@@ -470,40 +521,18 @@ std::uint64_t gather_rows(const char* fn, const gbuffer<T, Ids>& gb, const area_
             for (std::size_t x0 = 0; x0 < w; x0 += run) {
                 const auto m = static_cast<std::uint32_t>(std::min<std::size_t>(run, w - x0));
                 pixel_key_hashes(gb.region, x0, y, m, pass, s.light_index, s.frame_seed, seeds);
-                std::uint32_t k = 0;
-                if (grouped) {
-                    batch.plan.prepare(s.pattern, group_count);
-                    for (; k + G <= m; k += G) {  // G pixels at a time, one per lane (the rest one at a time below)
-                        drawn_pixel<T> d[G];
-                        const std::uint32_t surfaces =
-                            draw_pixel_group(gb.positions, gb.normals, x0 + k, y, light, frame, s.origin_offset, seeds + k, batch, d);
-                        for (std::uint32_t g = 0; g < G; ++g) {
-                            if ((surfaces >> g & 1U) == 0) continue;
-                            occlusion_stats<T>& out = stats(x0 + k + g, y);
-                            if constexpr (!batched) {
-                                local += trace_pixel<Query>(tracer, d[g], out, batch);
-                            } else {
-                                append_pixel(d[g], out, batch);
-                                if (batch.size >= batch_target) local += flush_batch<Query>(tracer, batch);
-                            }
-                        }
-                    }
-                }
-                for (; k < m; ++k) {
+                for (std::uint32_t k = 0; k < m;) {
+                    drawn_pixel<T> d[G];
                     const std::size_t x = x0 + k;
-                    const std::uint32_t count = sample_counts.empty() ? samples_per_pixel : sample_counts(x, y);
-                    if (count == 0) continue;
-                    const glm::vec<3, T> p = gb.positions(x, y);
-                    const glm::vec<3, T> n = gb.normals(x, y);
-                    if (!std::isfinite(p.x + p.y + p.z) || !std::isfinite(n.x + n.y + n.z)) continue;
-                    batch.plan.prepare(s.pattern, std::min(count, s.max_samples));
-                    const drawn_pixel<T> d =
-                        draw_pixel(p, receiver_normal(n, p, frame.center), light, frame, s.origin_offset, seeds[k], batch);
-                    if constexpr (!batched) {
-                        local += trace_pixel<Query>(tracer, d, stats(x, y), batch);
-                    } else {
-                        append_pixel(d, stats(x, y), batch);
-                        if (batch.size >= batch_target) local += flush_batch<Query>(tracer, batch);
+                    for (std::uint32_t todo = draw_next(rows, x0, y, m, seeds, k, batch, d); todo != 0; todo &= todo - 1) {
+                        const auto i = static_cast<std::uint32_t>(std::countr_zero(todo));
+                        occlusion_stats<T>& out = stats(x + i, y);
+                        if constexpr (!batched) {
+                            local += trace_pixel<Query>(tracer, d[i], out, batch);
+                        } else {
+                            append_pixel(d[i], out, batch);
+                            if (batch.size >= batch_target) local += flush_batch<Query>(tracer, batch);
+                        }
                     }
                 }
             }
@@ -556,6 +585,8 @@ std::uint64_t gather_visibility(const gbuffer<T, Ids>& gb, const area_light<T>& 
 #define AAF_DETAIL_GATHER_INSTANTIATIONS(KEYWORD, T)                                                            \
     AAF_DETAIL_INSTANTIATE(KEYWORD, detail::draw_pixel<T>)                                                      \
     AAF_DETAIL_INSTANTIATE(KEYWORD, detail::draw_pixel_group<T>)                                                \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::draw_next<T>)                                                       \
+    AAF_DETAIL_INSTANTIATE(KEYWORD, detail::make_pass_pixels<T>)                                                \
     AAF_DETAIL_INSTANTIATE(KEYWORD, detail::append_pixel<T>)                                                    \
     AAF_DETAIL_INSTANTIATE(KEYWORD, detail::require_gather_inputs<T, no_guide>)                                 \
     AAF_DETAIL_INSTANTIATE(KEYWORD, detail::require_gather_inputs<T, const_image_view<std::uint32_t>>)
