@@ -57,12 +57,40 @@ TEST_CASE("sheared: shear_of at its limits", "[variants][sheared]") {
         CHECK(std::isinf(sh.beta));
         CHECK(sh.center);
     }
-    SECTION("two depths: c the mean of 1/s, beta = 1/(k w)") {
+    SECTION("two depths: c the mean of 1/s, beta = 1/(k w) without narrowing") {
+        s.narrowing_pixels = 0.0f;
         const auto sh = aaf::shear_of(aaf::slope_pair<float>{1.0f, 0.8f}, sigma, d, s);
         CHECK(sh.c == Approx(0.5f * (1.0f + 1.25f)));
         const float w = 2.0f / sigma * 0.5f * (1.25f - 1.0f);
         CHECK(sh.beta == Approx(1.0f / (3.0f * w)));
         CHECK(sh.center);
+    }
+    SECTION("narrowing: beta = min(1/(k w), n^-1/4 sqrt(narrowing d / (k w)))") {
+        const float w = 2.0f / sigma * 0.5f * (1.25f - 1.0f), wedge = 1.0f / (3.0f * w);
+        for (const std::uint32_t n : {1u, 16u, 10000u}) {
+            s.frame.sampling.initial_samples = n;
+            const auto sh = aaf::shear_of(aaf::slope_pair<float>{1.0f, 0.8f}, sigma, d, s);
+            const float narrowed = std::pow(static_cast<float>(n), -0.25f) * std::sqrt(3.0f * d * wedge);
+            INFO(n << " spp");
+            CHECK(sh.beta == Approx(std::min(wedge, narrowed)));
+            CHECK(sh.center);
+        }
+        // A footprint as wide as the wedge's width leaves 1 spp unnarrowed: min keeps 1/(k w).
+        s.frame.sampling.initial_samples = 1;
+        CHECK(aaf::shear_of(aaf::slope_pair<float>{1.0f, 0.8f}, sigma, 0.5f * wedge, s).beta == Approx(wedge));
+        CHECK(std::isinf(aaf::shear_of(aaf::slope_pair<float>{0.5f, 0.5f}, sigma, d, s).beta));  // single depth: unbounded
+        s.narrowing_pixels = std::numeric_limits<float>::infinity();  // documented as off, like 0
+        CHECK(aaf::shear_of(aaf::slope_pair<float>{1.0f, 0.8f}, sigma, d, s).beta == Approx(wedge));
+    }
+    SECTION("width_scale narrows beta in proportion and nothing else") {
+        s.narrowing_pixels = 0.0f;
+        const auto wide = aaf::shear_of(aaf::slope_pair<float>{1.0f, 0.8f}, sigma, d, s);
+        s.width_scale = 0.25f;
+        const auto narrow = aaf::shear_of(aaf::slope_pair<float>{1.0f, 0.8f}, sigma, d, s);
+        CHECK(narrow.beta == Approx(0.25f * wide.beta));
+        CHECK(narrow.c == wide.c);
+        CHECK(narrow.center == wide.center);
+        CHECK(std::isinf(aaf::shear_of(aaf::slope_pair<float>{0.5f, 0.5f}, sigma, d, s).beta));  // single depth: still unbounded
     }
     SECTION("s1/s2 above max_slope_ratio falls back to aaf") {
         CHECK_FALSE(aaf::shear_of(aaf::slope_pair<float>{3.0f, 1.0f}, sigma, d, s).center);
@@ -168,6 +196,43 @@ TEST_CASE("sheared: on a single occluder plane 4 samples beat aaf at 4 samples",
     CHECK(e_aaf > 0.03);
 }
 
+TEST_CASE("sheared: where occluder depths overlap, narrowing lowers the error floor", "[variants][sheared]") {
+    // Two occluder planes overlapping along the shadow rays: a neighbour's sample whose occluder is not at
+    // the centre's shear depth lands up to width_scale·σ/(kμ) from its place on the light at |Δx| = β, a
+    // blur no number of samples removes (sheared.hpp, width_scale). At many samples a narrower filter must
+    // win, and the default narrowing (∝ n^-1/4) must keep lowering the error where the fixed width stalls;
+    // at 1 spp the wider fixed filter wins (it averages more neighbours), so no one fixed width is best.
+    scene_t sc;
+    sc.width = sc.height = 48;
+    sc.occluders.push_back({-1.2f, 0.2f, -0.1f, 0.9f, 1.6f});
+    const aaf_test::analytic_gbuffer<float> gb(sc);
+    const aaf_test::span_tracer<float> tracer{&sc};
+    const aaf::image<double> exact = sc.exact_image();
+    const auto error = [&](std::uint32_t spp, float width_scale, float narrowing) {
+        aaf::sheared_settings<float> s;
+        s.frame.sampling.initial_samples = spp;
+        s.frame.sampling.max_samples = std::max(spp, 100u);
+        s.max_slope_ratio = std::numeric_limits<float>::infinity();
+        s.width_scale = width_scale;
+        s.narrowing_pixels = narrowing;
+        aaf::sheared_workspace<float> ws;
+        aaf::image<float> img(sc.width, sc.height);
+        aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, ws, s);
+        return penumbra_rmse(img, exact);
+    };
+    const float standard = aaf::sheared_settings<float>{}.narrowing_pixels;
+    const double fixed16 = error(16, 1.0f, 0.0f), fixed64 = error(64, 1.0f, 0.0f), quarter64 = error(64, 0.25f, 0.0f);
+    const double narrowed16 = error(16, 1.0f, standard), narrowed64 = error(64, 1.0f, standard);
+    const double few_wide = error(1, 1.0f, 0.0f), few_quarter = error(1, 0.25f, 0.0f);
+    INFO("penumbra RMSE, width 1: 16 spp " << fixed16 << ", 64 spp " << fixed64 << "; width 0.25 at 64 spp " << quarter64
+                                           << "; narrowed: 16 spp " << narrowed16 << ", 64 spp " << narrowed64 << "; 1 spp width 1 "
+                                           << few_wide << ", 0.25 " << few_quarter);
+    CHECK(quarter64 < 0.8 * fixed64);
+    CHECK(narrowed64 < 0.8 * fixed64);
+    CHECK(narrowed64 < 0.85 * narrowed16);
+    CHECK(few_wide < few_quarter);
+}
+
 TEST_CASE("sheared: bad input throws naming the argument", "[variants][sheared]") {
     const scene_t sc = small_scene();
     const aaf_test::analytic_gbuffer<float> gb(sc);
@@ -190,6 +255,16 @@ TEST_CASE("sheared: bad input throws naming the argument", "[variants][sheared]"
     s = {};
     s.max_slope_ratio = 0.5f;
     throws_with([&] { aaf::render_sheared(gb.view(), light, tracer, {out.view()}, ws, s); }, "settings.max_slope_ratio");
+    s = {};
+    for (const float bad : {0.0f, -0.5f, 1.5f, std::nanf("")}) {
+        s.width_scale = bad;
+        throws_with([&] { aaf::render_sheared(gb.view(), light, tracer, {out.view()}, ws, s); }, "settings.width_scale");
+    }
+    s = {};
+    for (const float bad : {-1.0f, std::nanf("")}) {
+        s.narrowing_pixels = bad;
+        throws_with([&] { aaf::render_sheared(gb.view(), light, tracer, {out.view()}, ws, s); }, "settings.narrowing_pixels");
+    }
     s = {};
     s.shear_tolerance = std::nanf("");
     throws_with([&] { aaf::render_sheared(gb.view(), light, tracer, {out.view()}, ws, s); }, "settings.shear_tolerance");

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <aaf/variants.hpp>
 
@@ -156,21 +157,45 @@ method progressive_method() {
 }
 
 /// The sheared filter (aaf::render_sheared, variants/sheared.hpp): `knob` samples per pixel kept with their
-/// light coordinates; pixels whose s1/s2 exceeds `ratio` (or that are pixel-limited, or have no slopes but
-/// occluders nearby) fall back to aaf with its adaptive samples at mu = 2 (max 100); ratio +inf = never.
-method sheared_method(std::string name, float ratio, std::string description, float tolerance = 0.5f, std::uint32_t max_radius = 12) {
+/// light coordinates; pixels whose s1/s2 exceeds `max_slope_ratio` (or that are pixel-limited, or have no
+/// slopes but occluders nearby) fall back to aaf with its adaptive samples at mu = 2 (max 100); +inf = never.
+/// Unset options keep the library's defaults (sheared_settings).
+struct sheared_options {
+    float max_slope_ratio = 2.0f;
+    float shear_tolerance = 0.5f;
+    std::uint32_t max_radius = 12;
+    std::uint32_t bins = aaf::sheared_settings<float>{}.bins;
+    float bin_margin = aaf::sheared_settings<float>{}.bin_margin;
+    float width_scale = aaf::sheared_settings<float>{}.width_scale;
+    float narrowing_pixels = aaf::sheared_settings<float>{}.narrowing_pixels;
+    std::vector<double> sweep = {1, 2, 4, 9, 16, 25};  ///< samples kept per pixel
+};
+
+/// The settings of the sheared entries registered before the narrowing (docs/RESULTS.md's first tables).
+sheared_options before_narrowing(sheared_options o) {
+    o.bins = 4, o.bin_margin = 0.5f, o.narrowing_pixels = 0.0f;
+    return o;
+}
+
+method sheared_method(std::string name, std::string description, sheared_options o = {}) {
     aaf::sheared_settings<float> base;
-    base.max_slope_ratio = ratio;
-    base.shear_tolerance = tolerance;
-    base.max_radius = max_radius;
+    base.max_slope_ratio = o.max_slope_ratio;
+    base.shear_tolerance = o.shear_tolerance;
+    base.max_radius = o.max_radius;
+    base.bins = o.bins;
+    base.bin_margin = o.bin_margin;
+    base.width_scale = o.width_scale;
+    base.narrowing_pixels = o.narrowing_pixels;
     json j;
     j["description"] = description;
     j["knob"] = "initial_samples (samples stored per pixel, stratified)";
-    j["max_slope_ratio"] = std::isinf(ratio) ? json("inf") : json(ratio);
+    j["max_slope_ratio"] = std::isinf(o.max_slope_ratio) ? json("inf") : json(o.max_slope_ratio);
     j["shear_tolerance"] = base.shear_tolerance;
     j["bins_per_light_width"] = base.bins;
     j["bin_margin"] = base.bin_margin;
     j["max_radius"] = base.max_radius;
+    j["width_scale"] = base.width_scale;
+    j["narrowing_pixels"] = base.narrowing_pixels;
     j["mu"] = base.frame.formulas.mu;
     j["k"] = base.frame.formulas.k;
     j["fallback"] = "aaf: adaptive visibility samples n(mu), max 100, image-space offsets, normal and ID guides";
@@ -181,7 +206,7 @@ method sheared_method(std::string name, float ratio, std::string description, fl
         .family = "variants",
         .what = quantity::shadow,
         .knob = "initial_samples",
-        .sweep = {1, 2, 4, 9, 16, 25},
+        .sweep = o.sweep,
         .quick_sweep = {1, 4},
         .doubling_sweep = false,
         .default_knob = 4,
@@ -204,7 +229,14 @@ method sheared_method(std::string name, float ratio, std::string description, fl
         out.image = aaf::image<float>(in.s.width, in.s.height);
         const aaf::frame_report r = aaf::render_sheared(gb, in.s.light, in.tracer, {out.image.view()}, ws, s, in.pool);
         std::size_t centres = 0;
-        for (std::size_t i = 0; i < ws.shears.size(); ++i) centres += ws.shears.data()[i].center ? 1 : 0;
+        aaf::image<float> centre_mask(in.s.width, in.s.height);  // 1 where the sheared filter gave the pixel
+        for (std::size_t y = 0; y < in.s.height; ++y)
+            for (std::size_t x = 0; x < in.s.width; ++x) {
+                const bool c = ws.shears(x, y).center;
+                centre_mask(x, y) = c ? 1.0f : 0.0f;
+                centres += c ? 1 : 0;
+            }
+        out.pictures.emplace_back("centres", std::move(centre_mask));
         out.total_ms = r.total_ms;
         out.rays = r.rays();
         out.stages_ms = {{"rays", r.initial_ms + r.adaptive_ms}, {"formulas", r.formulas_ms}, {"filter", r.filter_ms}};
@@ -236,6 +268,7 @@ peer bilateral_peer(float sigma) {
 
 method_family variant_methods() {
     method_family f;
+    constexpr float inf = std::numeric_limits<float>::infinity();
     // Settings from the sweep of docs/RESULTS.md ("Peers and variants"): every candidate at 1-64 spp on
     // cornell and plant, ranked by the rays each needs to reach aaf_adaptive's error at mu = 2. Without
     // the luminance stop, and for the bilateral filter at any width, the peers keep a bias floor (they blur
@@ -251,12 +284,18 @@ method_family variant_methods() {
                     "stratified MC at spp, then a joint bilateral filter (sigma 1 px, normal/plane/ID stops; the best "
                     "bilateral width on cornell and plant)"),
         progressive_method(),
-        sheared_method("aaf_sheared", 2.0f,
+        sheared_method("aaf_sheared",
                        "sheared filter (Yan et al. 2015, FORMULAS 9.3) on pixels with s1/s2 <= 2, aaf with adaptive samples "
-                       "elsewhere; knob = samples per pixel kept"),
-        sheared_method("aaf_sheared_all", std::numeric_limits<float>::infinity(),
-                       "as aaf_sheared without the fallback on s1/s2 (sheared wherever the wedge is not pixel-limited)"),
-        sheared_method("aaf_sheared_tight", 2.0f, "as aaf_sheared with a shear tolerance of 0.1 and a 6-pixel radius cap", 0.1f, 6),
+                       "elsewhere; 4 light cells per axis, no narrowing; knob = samples per pixel kept",
+                       before_narrowing({})),
+        sheared_method("aaf_sheared_all", "as aaf_sheared without the fallback on s1/s2 (sheared wherever the wedge is not pixel-limited)",
+                       before_narrowing({.max_slope_ratio = inf})),
+        sheared_method("aaf_sheared_tight", "as aaf_sheared with a shear tolerance of 0.1 and a 6-pixel radius cap",
+                       before_narrowing({.shear_tolerance = 0.1f, .max_radius = 6})),
+        sheared_method("aaf_sheared_consistent",
+                       "sheared filter with the library's defaults (8 light cells per axis, width narrowed as spp^-1/4 "
+                       "times sqrt(3 px x wedge width)), no fallback on s1/s2: its bias falls as samples grow",
+                       {.max_slope_ratio = inf, .sweep = {1, 2, 4, 9, 16, 25, 36, 64}}),
     };
     const char* sweep = std::getenv("AAF_VARIANTS_SWEEP");
     if (sweep != nullptr && std::string(sweep) == "1") {
@@ -267,6 +306,14 @@ method_family variant_methods() {
         for (float s : {1.0f, 1.5f, 2.0f, 3.0f, 4.0f, 6.0f})
             f.methods.push_back(peer_method("bilateral_s" + std::to_string(static_cast<int>(s * 10)), bilateral_peer(s),
                                             "sweep candidate of the bilateral peer (sigma in tenths of a pixel)"));
+        for (float w : {0.5f, 0.25f, 0.125f})
+            f.methods.push_back(sheared_method("sheared_all_w" + std::to_string(static_cast<int>(w * 1000)),
+                                               "sweep candidate: aaf_sheared_all at one width_scale at every spp (in thousandths)",
+                                               before_narrowing({.max_slope_ratio = inf, .width_scale = w})));
+        for (float r : {0.5f, 1.0f, 2.0f, 4.0f})
+            f.methods.push_back(sheared_method("sheared_narrow_" + std::to_string(static_cast<int>(r * 1000)),
+                                               "sweep candidate: aaf_sheared_consistent at another narrowing_pixels (in thousandths)",
+                                               {.max_slope_ratio = inf, .narrowing_pixels = r}));
     }
     return f;
 }

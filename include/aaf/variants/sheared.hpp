@@ -15,8 +15,9 @@
 // Memory (what the abstract calls FSF's "high-dimensional data storage"): every sample is kept,
 // sizeof(light_sample<float>) = 12 bytes per sample (u, v and a state byte): 3.7 MB at 320×240 and 4 spp,
 // 14.7 MB at 16 spp (1080p at 16 spp: 398 MB). The row pass keeps (bins·(1 + 2·bin_margin))² bins of 4
-// values per pixel: 8×8 × 16 bytes = 1 KB per pixel at the defaults, 78.6 MB at 320×240 (2 GB at 1080p;
-// a renderer would keep only the 2·max_radius + 1 rows the column pass reads). aaf's own frame keeps one
+// values per pixel: 12×12 × 16 bytes = 2.3 KB per pixel at the defaults (bins 8, margin 0.25), 177 MB at
+// 320×240 and 4.8 GB at 1080p (bins 4, margin 0.5: 1 KB, 78.6 MB, 2 GB); a renderer would keep only the
+// 2·max_radius + 1 rows the column pass reads. aaf's own frame keeps one
 // occlusion_stats (28 bytes) per pixel.
 
 #include <algorithm>
@@ -131,13 +132,29 @@ struct sheared_settings {
     /// samples would be moved along the wrong shear, §9.5); [0, ∞], +∞ = no test.
     T shear_tolerance = T(0.5);
     /// Bins per light width and axis of the row pass's reprojected samples; [1, 32]. Each bin keeps the
-    /// weighted mean of its samples' coordinates, so a bin of one sample is exact.
-    std::uint32_t bins = 4;
+    /// weighted mean of its samples' coordinates, so a bin of one sample is exact. 8, not 4: from 9 samples
+    /// per pixel on, 4 bins' coarser cells are most of the remaining error (docs/RESULTS.md: lattice at
+    /// 25 spp 0.0085 → 0.0063 RMSE); 12 is worse again (more cells without samples).
+    std::uint32_t bins = 8;
     /// Light widths the bins extend beyond the light on each side (a sample moved off the light by the row
-    /// pass may be moved back by the column pass); [0, 2].
-    T bin_margin = T(0.5);
+    /// pass may be moved back by the column pass); [0, 2]. 0.25 and 0.5 gave the same result to 4 digits.
+    T bin_margin = T(0.25);
     /// Cap on the kernel radius in pixels (each pass); [0, 64].
     std::uint32_t max_radius = 12;
+    /// The spatial Gaussian's standard deviation as a fraction of the wedge's 1/(k·w); (0, 1]. Why below 1:
+    /// a neighbour's sample whose occluder is not at the centre's shear depth lands up to |Δx|·(1/s2 − 1/s1)/2
+    /// from where it belongs on the light, i.e. up to width_scale·σ/(k·μ) at |Δx| = β — independent of how
+    /// far apart the depths are. On a hard-edged light that blur of the visibility is a bias no number of
+    /// samples removes (the floor of docs/RESULTS.md); narrowing the filter shrinks it in proportion, at the
+    /// price of fewer neighbours. `narrowing_pixels` lowers it as samples grow.
+    T width_scale = T(1);
+    /// Narrows each pixel's spatial width with the samples per pixel n so that the filter is consistent:
+    /// β = min(width_scale·β_w, n^(−1/4)·√(narrowing_pixels·d·β_w)), β_w = 1/(k·w) and d the pixel's
+    /// footprint; [0, ∞], 0 = off. Why that form: the bias above grows as β, the variance falls as the
+    /// samples the kernel holds, n·(β/d)²; their sum is least at β ∝ n^(−1/4)·√(d·β_w), so the bias → 0 while
+    /// the samples held still grow as √n. The default 3 is the best of 0.5/1/2/3/4 on our scenes
+    /// (docs/RESULTS.md); a single-depth pixel (β_w = ∞) keeps its unbounded Gaussian.
+    T narrowing_pixels = T(3);
     /// How the weighted samples become a visibility (also the cells of per_cell: `bins` per axis).
     sheared_normalization normalization = sheared_normalization::per_cell;
 };
@@ -156,6 +173,10 @@ void validate(const sheared_settings<T>& s, const char* function = "validate") {
     if (s.normalization != sheared_normalization::pooled && s.normalization != sheared_normalization::per_cell)
         detail::throw_invalid(function, "`settings.normalization` must be sheared_normalization::pooled or per_cell");
     if (s.max_radius > 64) detail::throw_invalid(function, "`settings.max_radius` must be in [0, 64] (got " + std::to_string(s.max_radius) + ")");
+    if (!(s.width_scale > T(0) && s.width_scale <= T(1)))
+        detail::throw_invalid(function, "`settings.width_scale` must be in (0, 1] (got " + std::to_string(s.width_scale) + ")");
+    if (!(s.narrowing_pixels >= T(0)))
+        detail::throw_invalid(function, "`settings.narrowing_pixels` must be in [0, inf] (got " + std::to_string(s.narrowing_pixels) + ")");
 }
 
 /// A pixel's shear from its slopes (FORMULAS.md §9.1), σ of the light and its footprint d. Not a
@@ -170,7 +191,12 @@ template <class T>
     const T inv1 = T(1) / s.s1, inv2 = T(1) / s.s2;
     r.c = T(0.5) * (inv1 + inv2);
     const T w = f.mu / sigma * T(0.5) * std::max(inv2 - inv1, T(0));
-    r.beta = w > T(0) ? T(1) / (f.k * w) : std::numeric_limits<T>::infinity();
+    const T wedge_beta = w > T(0) ? T(1) / (f.k * w) : std::numeric_limits<T>::infinity();
+    r.beta = set.width_scale * wedge_beta;
+    if (set.narrowing_pixels > T(0) && std::isfinite(set.narrowing_pixels) && std::isfinite(pixel_size) && pixel_size > T(0)) {
+        const T n = static_cast<T>(std::max<std::uint32_t>(set.frame.sampling.initial_samples, 1));
+        r.beta = std::min(r.beta, std::sqrt(set.narrowing_pixels * pixel_size * wedge_beta / std::sqrt(n)));  // inf stays inf
+    }
     const bool pixel_limited = std::isfinite(pixel_size) && pixel_size > T(0) && T(2) * w * pixel_size > f.alpha;
     r.center = std::isfinite(r.c) && !(s.s1 > set.max_slope_ratio * s.s2) && !pixel_limited && std::isfinite(pixel_size) &&
                pixel_size > T(0);
