@@ -53,6 +53,9 @@ struct method_output {
     std::vector<std::pair<std::string, aaf::image<float>>> pictures;   ///< extra pictures for aaf-render (heat maps, ...)
     std::vector<std::pair<std::string, aaf::image<aaf::rgb8>>> colour_pictures;  ///< extra RGB pictures (heat maps, bent normals)
     nlohmann::json point_settings = nlohmann::json::object();          ///< settings that vary along the knob, for the JSON
+    /// Named parts of the image (1 = in the part, row-major, the image's size), e.g. the pixels one of a
+    /// method's two filters gave: aaf-tradeoff splits each point's error by them ("regions" in the JSON).
+    std::vector<std::pair<std::string, std::vector<unsigned char>>> regions;
 };
 
 /// One technique with its cost knob.

@@ -53,6 +53,7 @@ struct measurement {
     std::size_t memory_bytes = 0;
     double rmse = 0, ssim = 0, max_abs_error = 0;
     json extra = json::object();  ///< the settings fields that vary along the knob
+    json regions = json::object();  ///< the error split by the method's regions (region_errors)
     std::vector<double> total_ms;
     std::vector<std::pair<std::string, std::vector<double>>> stages_ms;  ///< per named stage, every run
 };
@@ -62,6 +63,34 @@ struct context {
     const aaf::image<float>& reference;
     const std::vector<unsigned char>& mask;
 };
+
+/// The error of `image` split by each of the method's regions, over the metric's pixels: the share of those
+/// pixels in the region and of the squared error on them, and the RMSE inside and outside (so that
+/// rmse² = pixel_share·rmse_in² + (1 − pixel_share)·rmse_out²). Non-finite pixels count as an error of 1, as rmse.
+json region_errors(const method_output& out, const context& ctx) {
+    json r = json::object();
+    const aaf::image<float>& ref = ctx.reference;
+    for (const auto& [name, in_region] : out.regions) {
+        if (in_region.size() != ref.size())
+            throw std::logic_error("method region '" + name + "' has " + std::to_string(in_region.size()) + " pixels, the image " +
+                                   std::to_string(ref.size()));
+        double sum_in = 0, sum_out = 0;
+        std::size_t n_in = 0, n_out = 0;
+        for (std::size_t i = 0; i < ref.size(); ++i) {
+            if (!ctx.mask.empty() && !ctx.mask[i]) continue;
+            double d = static_cast<double>(out.image.data()[i]) - static_cast<double>(ref.data()[i]);
+            if (!std::isfinite(d)) d = 1;
+            (in_region[i] ? sum_in : sum_out) += d * d;
+            ++(in_region[i] ? n_in : n_out);
+        }
+        const double n = static_cast<double>(n_in + n_out), total = sum_in + sum_out;
+        r[name] = {{"pixel_share", n > 0 ? static_cast<double>(n_in) / n : 0.0},
+                   {"error_share", total > 0 ? sum_in / total : 0.0},
+                   {"rmse_in", n_in ? std::sqrt(sum_in / static_cast<double>(n_in)) : 0.0},
+                   {"rmse_out", n_out ? std::sqrt(sum_out / static_cast<double>(n_out)) : 0.0}};
+    }
+    return r;
+}
 
 /// Renders point `m` once more, appending its timings; the first time also measures its errors.
 void run_point(const context& ctx, measurement& m) {
@@ -80,6 +109,7 @@ void run_point(const context& ctx, measurement& m) {
         m.rmse = rmse(out.image, ctx.reference, ctx.mask);
         m.ssim = ssim(out.image, ctx.reference, ctx.mask);
         m.max_abs_error = max_abs_error(out.image, ctx.reference, ctx.mask);
+        m.regions = region_errors(out, ctx);
     }
 }
 
@@ -97,6 +127,7 @@ json point_json(const context& ctx, const measurement& m) {
     p["rmse"] = m.rmse;
     p["ssim"] = m.ssim;
     p["max_abs_error"] = m.max_abs_error;
+    if (!m.regions.empty()) p["regions"] = m.regions;
     p["time_ms_runs"] = m.total_ms;
     p.update(m.extra);
     return p;

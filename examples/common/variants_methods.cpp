@@ -229,14 +229,17 @@ method sheared_method(std::string name, std::string description, sheared_options
         out.image = aaf::image<float>(in.s.width, in.s.height);
         const aaf::frame_report r = aaf::render_sheared(gb, in.s.light, in.tracer, {out.image.view()}, ws, s, in.pool);
         std::size_t centres = 0;
-        aaf::image<float> centre_mask(in.s.width, in.s.height);  // 1 where the sheared filter gave the pixel
+        aaf::image<float> centre_picture(in.s.width, in.s.height);  // 1 where the sheared filter gave the pixel
+        std::vector<unsigned char> centre_region(in.s.width * in.s.height, 0);
         for (std::size_t y = 0; y < in.s.height; ++y)
             for (std::size_t x = 0; x < in.s.width; ++x) {
                 const bool c = ws.shears(x, y).center;
-                centre_mask(x, y) = c ? 1.0f : 0.0f;
+                centre_picture(x, y) = c ? 1.0f : 0.0f;
+                centre_region[y * in.s.width + x] = c ? 1 : 0;
                 centres += c ? 1 : 0;
             }
-        out.pictures.emplace_back("centres", std::move(centre_mask));
+        out.pictures.emplace_back("centres", std::move(centre_picture));
+        out.regions.emplace_back("sheared_centres", std::move(centre_region));
         out.total_ms = r.total_ms;
         out.rays = r.rays();
         out.stages_ms = {{"rays", r.initial_ms + r.adaptive_ms}, {"formulas", r.formulas_ms}, {"filter", r.filter_ms}};

@@ -235,3 +235,45 @@ TEST_CASE("a tiny in-process run gives the documented JSON", "[tradeoff][json]")
     }
     fs::remove_all(c.cache);
 }
+
+TEST_CASE("a method's regions split its error: shares that recombine to the point's RMSE", "[tradeoff][json]") {
+    // The sheared methods mark the pixels the sheared filter gave (the rest are aaf's): the split must be a
+    // partition of the metric's pixels and of the squared error.
+    aaf_examples::tradeoff::config c;
+    c.scene = "lattice";
+    c.width = 64, c.height = 48;
+    c.threads = 2;
+    c.reference_spp = 32;
+    c.repeat = 1;
+    c.quick = true;
+    c.max_mc_spp = 16;
+    c.progress = false;
+    c.cache = fs::temp_directory_path() / "aaf-test-tradeoff-cache";
+    c.methods = {"aaf_sheared_consistent"};
+    const nlohmann::json r = aaf_examples::tradeoff::run(c);
+    bool found = false, some_inside = false;
+    for (const auto& m : r.at("methods")) {
+        if (m.at("name") != "aaf_sheared_consistent") {
+            for (const auto& p : m.at("points")) CHECK_FALSE(p.contains("regions"));  // Monte Carlo has none
+            continue;
+        }
+        found = true;
+        for (const auto& p : m.at("points")) {
+            REQUIRE(p.contains("regions"));
+            const auto& g = p["regions"].at("sheared_centres");
+            const double share = g.at("pixel_share").get<double>(), err_share = g.at("error_share").get<double>();
+            const double in = g.at("rmse_in").get<double>(), out = g.at("rmse_out").get<double>(), all = p.at("rmse").get<double>();
+            INFO("pixel share " << share << ", error share " << err_share << ", rmse in " << in << " out " << out << " all " << all);
+            CHECK(share >= 0.0);
+            CHECK(share <= 1.0);
+            CHECK(err_share >= 0.0);
+            CHECK(err_share <= 1.0);
+            CHECK(share * in * in + (1 - share) * out * out == Approx(all * all).epsilon(1e-9));
+            CHECK(err_share * all * all == Approx(share * in * in).epsilon(1e-9).margin(1e-15));
+            some_inside = some_inside || share > 0;
+        }
+    }
+    CHECK(found);
+    CHECK(some_inside);
+}
+
