@@ -40,6 +40,22 @@ aaf::image<float> soft_edge(std::size_t w, std::size_t h) {
     return img;
 }
 
+/// A quick in-process run's settings (2 threads, a 32-spp reference cached in the temporary folder `cache`).
+aaf_examples::tradeoff::config tiny_run(const char* scene, std::size_t width, std::size_t height, std::uint32_t max_mc_spp,
+                                        const char* cache) {
+    aaf_examples::tradeoff::config c;
+    c.scene = scene;
+    c.width = width, c.height = height;
+    c.threads = 2;
+    c.reference_spp = 32;
+    c.repeat = 1;
+    c.quick = true;
+    c.max_mc_spp = max_mc_spp;
+    c.progress = false;
+    c.cache = fs::temp_directory_path() / cache;
+    return c;
+}
+
 }  // namespace
 
 TEST_CASE("ssim: 1 for identical images, the closed form for constant ones, symmetric, lower with noise", "[tradeoff][metrics]") {
@@ -145,16 +161,7 @@ TEST_CASE("equal_error_cost: exact on power laws, first crossing, bounds outside
 }
 
 TEST_CASE("a tiny in-process run gives the documented JSON", "[tradeoff][json]") {
-    aaf_examples::tradeoff::config c;
-    c.scene = "boxes";
-    c.width = 40, c.height = 30;
-    c.threads = 2;
-    c.reference_spp = 32;
-    c.repeat = 1;
-    c.quick = true;
-    c.max_mc_spp = 64;
-    c.progress = false;
-    c.cache = fs::temp_directory_path() / "aaf-test-tradeoff-cache";
+    aaf_examples::tradeoff::config c = tiny_run("boxes", 40, 30, 64, "aaf-test-tradeoff-cache");
     c.methods = {"aaf_adaptive", "mc_low_discrepancy", "preset_fast"};
     const nlohmann::json r = aaf_examples::tradeoff::run(c);
 
@@ -239,16 +246,8 @@ TEST_CASE("a tiny in-process run gives the documented JSON", "[tradeoff][json]")
 TEST_CASE("a method's regions split its error: shares that recombine to the point's RMSE", "[tradeoff][json]") {
     // The sheared methods mark the pixels the sheared filter gave (the rest are aaf's): the split must be a
     // partition of the metric's pixels and of the squared error.
-    aaf_examples::tradeoff::config c;
-    c.scene = "lattice";
-    c.width = 64, c.height = 48;
-    c.threads = 2;
-    c.reference_spp = 32;
-    c.repeat = 1;
-    c.quick = true;
-    c.max_mc_spp = 16;
-    c.progress = false;
-    c.cache = fs::temp_directory_path() / "aaf-test-tradeoff-cache";
+    // Its own cache folder: ctest may run this case beside the one above, which removes its folder.
+    aaf_examples::tradeoff::config c = tiny_run("lattice", 64, 48, 16, "aaf-test-tradeoff-regions-cache");
     c.methods = {"aaf_sheared_consistent"};
     const nlohmann::json r = aaf_examples::tradeoff::run(c);
     bool found = false, some_inside = false;
@@ -275,5 +274,5 @@ TEST_CASE("a method's regions split its error: shares that recombine to the poin
     }
     CHECK(found);
     CHECK(some_inside);
+    fs::remove_all(c.cache);
 }
-
