@@ -75,11 +75,11 @@ TEST_CASE("sheared: shear_of at its limits", "[variants][sheared]") {
             CHECK(sh.beta == Approx(std::min(wedge, narrowed)));
             CHECK(sh.center);
         }
-        // A footprint as wide as the wedge's width leaves 1 spp unnarrowed: min keeps 1/(k w).
+        // A footprint of half the wedge's width leaves 1 spp unnarrowed (√(3·½) > 1): min keeps 1/(k w).
         s.frame.sampling.initial_samples = 1;
         CHECK(aaf::shear_of(aaf::slope_pair<float>{1.0f, 0.8f}, sigma, 0.5f * wedge, s).beta == Approx(wedge));
         CHECK(std::isinf(aaf::shear_of(aaf::slope_pair<float>{0.5f, 0.5f}, sigma, d, s).beta));  // single depth: unbounded
-        s.narrowing_pixels = std::numeric_limits<float>::infinity();  // documented as off, like 0
+        s.narrowing_pixels = std::numeric_limits<float>::infinity();  // documented as off, like 0 (the limit of the min)
         CHECK(aaf::shear_of(aaf::slope_pair<float>{1.0f, 0.8f}, sigma, d, s).beta == Approx(wedge));
     }
     SECTION("width_scale narrows beta in proportion and nothing else") {

@@ -151,7 +151,7 @@ struct sheared_settings {
     T width_scale = T(1);
     /// Narrows each pixel's spatial width with the samples per pixel n so that the filter is consistent:
     /// β = min(width_scale·β_w, n^(−1/4)·√(narrowing_pixels·d·β_w)), β_w = 1/(k·w) and d the pixel's
-    /// footprint; [0, ∞], 0 = off. Why that form: the bias above grows as β, the variance falls as the
+    /// footprint; [0, ∞], 0 = off (∞ too: the min keeps width_scale·β_w). Why that form: the bias above grows as β, the variance falls as the
     /// samples the kernel holds, n·(β/d)²; their sum is least at β ∝ n^(−1/4)·√(d·β_w), so the bias → 0 while
     /// the samples held still grow as √n. The default 3 is the best of 0.5/1/2/3/4 on our scenes
     /// (docs/RESULTS.md); a single-depth pixel (β_w = ∞) keeps its unbounded Gaussian.
