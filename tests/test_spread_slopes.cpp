@@ -206,6 +206,47 @@ TEST_CASE("spread_slopes: thread pools give identical results", "[spread][execut
     }
 }
 
+namespace {
+/// Runs the bodies on the calling thread in reverse order of the sub-ranges it cuts, and says a concurrency
+/// of its choice: the bands spread_slopes cuts for it must not change a bit.
+struct reversed_executor {
+    std::size_t threads = 0;
+    std::size_t chunk = 1;
+    template <class Body>
+    void parallel_for(std::size_t count, Body&& body) const {
+        for (std::size_t b = (count + chunk - 1) / chunk; b-- > 0;) body(b * chunk, std::min(count, (b + 1) * chunk));
+    }
+    [[nodiscard]] std::size_t concurrency() const noexcept { return threads; }
+};
+}  // namespace
+
+TEST_CASE("spread_slopes: one band per thread (executors that say their concurrency) gives the same bits", "[spread][executor]") {
+    // Tall enough that the bands are not the fixed 64 rows: 2 threads cut 301 rows into 151 + 150, 3 into
+    // 101-row bands, 4 into 76-row ones; a concurrency of 9 keeps the 64-row minimum.
+    const aaf::image<sp> in = random_slopes(72, 301, 0.03, 17);
+    const aaf::image<std::uint32_t> ids = random_ids(72, 301, 18);
+    const auto g = aaf::guides{aaf::no_guide{}, ids.cview()};
+    CHECK(aaf::concurrency_of(aaf::sequential_executor{}) == 1);
+    CHECK(aaf::concurrency_of(reversed_executor{5}) == 5);
+    for (std::uint32_t radius : {1u, 10u, 70u}) {
+        aaf::image<sp> expected = copy_of(in), scratch(72, 301);
+        aaf::spread_slopes<float>(expected.view(), scratch.view(), radius, g);
+        for (const std::size_t threads : {0u, 2u, 3u, 4u, 9u}) {
+            aaf::image<sp> got = copy_of(in);
+            aaf::spread_slopes<float>(got.view(), scratch.view(), radius, g, reversed_executor{threads});
+            INFO("radius " << radius << ", concurrency " << threads);
+            CHECK(count_mismatches(expected, got) == 0);
+        }
+        for (const std::size_t threads : {2u, 3u}) {
+            aaf::thread_pool pool(threads);
+            CHECK(aaf::concurrency_of(pool) == threads);
+            aaf::image<sp> got = copy_of(in);
+            aaf::spread_slopes<float>(got.view(), scratch.view(), radius, g, pool);
+            CHECK(count_mismatches(expected, got) == 0);
+        }
+    }
+}
+
 TEST_CASE("spread_slopes: invalid arguments throw naming the argument, slopes untouched", "[spread]") {
     const aaf::image<sp> in = random_slopes(12, 8, 0.2, 9);
     aaf::image<sp> slopes = copy_of(in), scratch(12, 8), small(11, 8);

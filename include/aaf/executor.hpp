@@ -35,12 +35,23 @@ concept executor = requires(E& e, std::size_t count, std::function<void(std::siz
     { e.parallel_for(count, body) };
 };
 
+/// Optionally an executor says how many bodies it runs at once, as `concurrency()` (thread_pool: its
+/// threads; sequential_executor: 1). A stage whose tasks read a halo of rows around their own (spread_slopes)
+/// then cuts the image into that many bands instead of many small ones. Without it (0 = unknown) the stage
+/// keeps its fixed band size; results never depend on it.
+template <class E>
+[[nodiscard]] std::size_t concurrency_of(const E& e) noexcept {
+    if constexpr (requires { { e.concurrency() } -> std::convertible_to<std::size_t>; }) return static_cast<std::size_t>(e.concurrency());
+    else return 0;
+}
+
 /// Runs everything on the calling thread. The default.
 struct sequential_executor {
     template <class Body>
     void parallel_for(std::size_t count, Body&& body) const {
         if (count > 0) body(std::size_t{0}, count);
     }
+    [[nodiscard]] static constexpr std::size_t concurrency() noexcept { return 1; }
 };
 
 /// A fixed pool of std::threads created once (never per call), plus the calling thread, which works too.
@@ -81,6 +92,8 @@ public:
     }
 
     [[nodiscard]] std::size_t size() const noexcept { return workers_.size() + (caller_works_ ? 1 : 0); }
+    /// The threads that run bodies at once (= size(); see concurrency_of).
+    [[nodiscard]] std::size_t concurrency() const noexcept { return size(); }
 
     /// How long an idle thread polls for the next call (and the caller for the last chunks) before it
     /// blocks: long enough to bridge the gap between a frame's consecutive calls, short enough that an
@@ -226,12 +239,14 @@ public:
     template <class E>
         requires(!std::is_same_v<std::remove_cvref_t<E>, executor_ref>)
     executor_ref(E& exec) noexcept  // NOLINT: implicit, so that an executor converts where a stage takes one
-        : exec_(const_cast<void*>(static_cast<const void*>(std::addressof(exec)))), run_(&run<E>) {}
+        : exec_(const_cast<void*>(static_cast<const void*>(std::addressof(exec)))), run_(&run<E>), concurrency_(concurrency_of(exec)) {}
 
     template <class Body>
     void parallel_for(std::size_t count, Body&& body) const {
         run_(exec_, count, function_ref<void(std::size_t, std::size_t)>(body));
     }
+    /// The referenced executor's concurrency_of (0 = it does not say).
+    [[nodiscard]] std::size_t concurrency() const noexcept { return concurrency_; }
 
 private:
     using body_ref = function_ref<void(std::size_t, std::size_t)>;
@@ -241,6 +256,7 @@ private:
     }
     void* exec_;
     void (*run_)(void*, std::size_t, body_ref);
+    std::size_t concurrency_;
 };
 
 static_assert(executor<executor_ref>);

@@ -1783,6 +1783,10 @@ void spread_lane_groups(const slope_pair<T>* src, const std::uint32_t* ids, std:
 /// rows handed out one by one, the thread pool's default grain) made every thread fetch nearly every row
 /// of the image once per pass — 2 threads then moved twice the bytes of one (issue 14: 1.46x on 2 threads).
 /// 64 rows: the band's halo is a third of a band at radius 10, and a 720-row frame still has 12 tasks.
+/// An executor that says its concurrency (concurrency_of) gets one band per thread instead, no thinner than
+/// this: the halo falls to 2·radius rows per band, and a thread's vertical pass mostly reads the rows its
+/// own horizontal pass wrote (1280×720 on 2 threads, AVX-512: 2.7 → 2.2 ms without IDs, 3.7 → 2.9 ms with;
+/// docs/BENCHMARKS.md).
 inline constexpr std::size_t spread_rows_per_task = 64;
 
 /// One spreading pass over rows [y_begin, y_end) of `dst` (spread_pixel for every pixel): in vectors of
@@ -1875,8 +1879,10 @@ void spread_slopes_impl(image_view<slope_pair<T>> slopes, image_view<slope_pair<
     // Horizontal: scratch = row-window max/min over occluded pixels. Vertical reads scratch, writes slopes,
     // skipping occluded pixels (whose values in `slopes` are still the originals it needs to keep).
     // Tasks are bands of spread_rows_per_task rows (each pixel's result does not depend on the split).
-    const std::size_t tasks = (h + spread_rows_per_task - 1) / spread_rows_per_task;
-    const auto row = [h](std::size_t task) { return std::min(task * spread_rows_per_task, h); };
+    const std::size_t threads = exec.concurrency();
+    const std::size_t band = threads > 1 ? std::max(spread_rows_per_task, (h + threads - 1) / threads) : spread_rows_per_task;
+    const std::size_t tasks = (h + band - 1) / band;
+    const auto row = [h, band](std::size_t task) { return std::min(task * band, h); };
     exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
         spread_pass<pass_direction::horizontal, T>(slopes, scratch, slopes, g, radius, row(b), row(e));
     });
