@@ -1785,8 +1785,8 @@ void spread_lane_groups(const slope_pair<T>* src, const std::uint32_t* ids, std:
 /// 64 rows: the band's halo is a third of a band at radius 10, and a 720-row frame still has 12 tasks.
 /// An executor that says its concurrency (concurrency_of) gets one band per thread instead, no thinner than
 /// this: the halo falls to 2·radius rows per band, and a thread's vertical pass mostly reads the rows its
-/// own horizontal pass wrote (1280×720 on 2 threads, AVX-512: 2.7 → 2.2 ms without IDs, 3.7 → 2.9 ms with;
-/// docs/BENCHMARKS.md).
+/// own horizontal pass wrote (1280×720 on 2 threads, AVX-512, medians of six noisy rounds: 2.73 → 2.28 ms
+/// without IDs, 3.87 → 3.50 ms with; docs/BENCHMARKS.md).
 inline constexpr std::size_t spread_rows_per_task = 64;
 
 /// One spreading pass over rows [y_begin, y_end) of `dst` (spread_pixel for every pixel): in vectors of
@@ -1878,7 +1878,8 @@ void spread_slopes_impl(image_view<slope_pair<T>> slopes, image_view<slope_pair<
     if (radius == 0) return;
     // Horizontal: scratch = row-window max/min over occluded pixels. Vertical reads scratch, writes slopes,
     // skipping occluded pixels (whose values in `slopes` are still the originals it needs to keep).
-    // Tasks are bands of spread_rows_per_task rows (each pixel's result does not depend on the split).
+    // Tasks are bands of spread_rows_per_task rows, or one per thread when the executor says how many (each
+    // pixel's result does not depend on the split).
     const std::size_t threads = exec.concurrency();
     const std::size_t band = threads > 1 ? std::max(spread_rows_per_task, (h + threads - 1) / threads) : spread_rows_per_task;
     const std::size_t tasks = (h + band - 1) / band;
