@@ -168,12 +168,13 @@ struct sheared_options {
     float bin_margin = aaf::sheared_settings<float>{}.bin_margin;
     float width_scale = aaf::sheared_settings<float>{}.width_scale;
     float narrowing_pixels = aaf::sheared_settings<float>{}.narrowing_pixels;
+    bool per_sample_depth = aaf::sheared_settings<float>{}.per_sample_depth;
     std::vector<double> sweep = {1, 2, 4, 9, 16, 25};  ///< samples kept per pixel
 };
 
 /// The settings of the sheared entries registered before the narrowing (docs/RESULTS.md's first tables).
 sheared_options before_narrowing(sheared_options o) {
-    o.bins = 4, o.bin_margin = 0.5f, o.narrowing_pixels = 0.0f;
+    o.bins = 4, o.bin_margin = 0.5f, o.narrowing_pixels = 0.0f, o.per_sample_depth = false;
     return o;
 }
 
@@ -186,6 +187,7 @@ method sheared_method(std::string name, std::string description, sheared_options
     base.bin_margin = o.bin_margin;
     base.width_scale = o.width_scale;
     base.narrowing_pixels = o.narrowing_pixels;
+    base.per_sample_depth = o.per_sample_depth;
     json j;
     j["description"] = description;
     j["knob"] = "initial_samples (samples stored per pixel, stratified)";
@@ -196,6 +198,7 @@ method sheared_method(std::string name, std::string description, sheared_options
     j["max_radius"] = base.max_radius;
     j["width_scale"] = base.width_scale;
     j["narrowing_pixels"] = base.narrowing_pixels;
+    j["per_sample_depth"] = base.per_sample_depth;
     j["mu"] = base.frame.formulas.mu;
     j["k"] = base.frame.formulas.k;
     j["fallback"] = "aaf: adaptive visibility samples n(mu), max 100, image-space offsets, normal and ID guides";
@@ -297,7 +300,8 @@ method_family variant_methods() {
                        before_narrowing({.shear_tolerance = 0.1f, .max_radius = 6})),
         sheared_method("aaf_sheared_consistent",
                        "sheared filter with the library's defaults (8 light cells per axis, width narrowed as spp^-1/4 "
-                       "times sqrt(3 px x wedge width)), no fallback on s1/s2: its bias falls as samples grow",
+                       "times sqrt(3 px x wedge width), blocked samples moved through their own occluder in the row pass), "
+                       "no fallback on s1/s2: its bias falls as samples grow",
                        {.max_slope_ratio = inf, .sweep = {1, 2, 4, 9, 16, 25, 36, 64}}),
     };
     const char* sweep = std::getenv("AAF_VARIANTS_SWEEP");
@@ -313,6 +317,9 @@ method_family variant_methods() {
             f.methods.push_back(sheared_method("sheared_all_w" + std::to_string(static_cast<int>(w * 1000)),
                                                "sweep candidate: aaf_sheared_all at one width_scale at every spp (in thousandths)",
                                                before_narrowing({.max_slope_ratio = inf, .width_scale = w})));
+        f.methods.push_back(sheared_method("sheared_one_shear",
+                                           "sweep candidate: aaf_sheared_consistent moving every sample with the centre's shear",
+                                           {.max_slope_ratio = inf, .per_sample_depth = false, .sweep = {1, 2, 4, 9, 16, 25, 36, 64}}));
         for (float r : {0.5f, 1.0f, 2.0f, 4.0f})
             f.methods.push_back(sheared_method("sheared_narrow_" + std::to_string(static_cast<int>(r * 1000)),
                                                "sweep candidate: aaf_sheared_consistent at another narrowing_pixels (in thousandths)",

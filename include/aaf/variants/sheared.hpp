@@ -13,8 +13,8 @@
 // axis-aligned filter with its adaptive samples (render_sheared).
 //
 // Memory (what the abstract calls FSF's "high-dimensional data storage"): every sample is kept,
-// sizeof(light_sample<float>) = 12 bytes per sample (u, v and a state byte): 3.7 MB at 320×240 and 4 spp,
-// 14.7 MB at 16 spp (1080p at 16 spp: 398 MB). The row pass keeps (bins·(1 + 2·bin_margin))² bins of 4
+// sizeof(light_sample<float>) = 16 bytes per sample (u, v, a state byte and the occluder's height): 4.9 MB
+// at 320×240 and 4 spp, 19.7 MB at 16 spp (1080p at 16 spp: 531 MB). The row pass keeps (bins·(1 + 2·bin_margin))² bins of 4
 // values per pixel: 12×12 × 16 bytes = 2.3 KB per pixel at the defaults (bins 8, margin 0.25), 177 MB at
 // 320×240 and 4.8 GB at 1080p (bins 4, margin 0.5: 1 KB, 78.6 MB, 2 GB); a renderer would keep only the
 // 2·max_radius + 1 rows the column pass reads. aaf's own frame keeps one
@@ -64,6 +64,10 @@ template <class T = float>
 struct light_sample {
     T u = 0, v = 0;  ///< light parameters in [0, 1)²
     sample_state state = sample_state::unused;
+    /// A blocked sample's nearest occluder: its height above the light plane as a fraction of the shadow
+    /// ray's origin's (1 − t/length along the ray); NaN for other states. Lets the row pass move the sample
+    /// through its own occluder point (sheared_settings::per_sample_depth).
+    T occluder = std::numeric_limits<T>::quiet_NaN();
 };
 
 /// Every pixel's samples, `samples_per_pixel` of them each, row-major (the sheared filter's input).
@@ -158,6 +162,11 @@ struct sheared_settings {
     T narrowing_pixels = T(3);
     /// How the weighted samples become a visibility (also the cells of per_cell: `bins` per axis).
     sheared_normalization normalization = sheared_normalization::per_cell;
+    /// Row pass: a neighbour's blocked sample is moved through its own nearest occluder point (light_sample::
+    /// occluder) instead of through the occluder plane of the centre's shear; its visible samples still move
+    /// with the shear. Where occluders at other depths than the shear's overlap, their samples then land where
+    /// they belong on the light (docs/DEVIATIONS.md H9; the column pass still moves bins with one shear).
+    bool per_sample_depth = true;
 };
 
 /// Throws aaf::invalid_argument naming the first invalid field.
@@ -397,10 +406,14 @@ void sheared_filter(const_image_view<glm::vec<3, T>> positions, const_image_view
                     const T a = std::exp(-detail::plane_distance2(p0, pn, lp.normal) * inv_two_beta2);
                     const detail::reprojection<T> move(plane(xn, y), q, d2);
                     if (xn != x && !move.valid) continue;
+                    const glm::vec<3, T> from = plane(xn, y);
                     for (const light_sample<T>& smp : samples.pixel(xn, y)) {
                         if (smp.state == sample_state::unused) continue;
                         glm::vec<2, T> m(smp.u, smp.v);
-                        if (xn != x) m = move(m);
+                        // Its own occluder point (NaN, so no bin, when that is not between the receivers and the light).
+                        if (xn != x && s.per_sample_depth && smp.state == sample_state::blocked && std::isfinite(smp.occluder))
+                            m = detail::reproject(m, from, q, from.z * smp.occluder);
+                        else if (xn != x) m = move(m);
                         const T bu = std::floor((m.x + margin) * B), bv = std::floor((m.y + margin) * B);
                         if (!(bu >= T(0) && bu < static_cast<T>(nb) && bv >= T(0) && bv < static_cast<T>(nb))) continue;
                         auto& b = out[static_cast<std::size_t>(bv) * nb + static_cast<std::size_t>(bu)];
@@ -534,6 +547,7 @@ std::uint64_t gather_light_samples(const gbuffer<T, Ids>& gb, const area_light<T
                     st.add_sample(wgt[j], d1, seg[j].length, hit[j]);
                     const bool failed = std::isnan(hit[j].nearest) || std::isnan(hit[j].farthest);
                     out[index[j]].state = failed ? sample_state::unused : hit[j].hit() ? sample_state::blocked : sample_state::visible;
+                    if (!failed && hit[j].hit()) out[index[j]].occluder = T(1) - hit[j].nearest / seg[j].length;
                 }
             }
         rays += local;
