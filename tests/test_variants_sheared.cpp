@@ -41,6 +41,34 @@ double penumbra_rmse(const aaf::image<float>& img, const aaf::image<double>& exa
     return n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
 }
 
+/// 48×48, with a second occluder plane (y = 1.6) whose shadow overlaps the first's (y = 1; light at y = 3).
+scene_t two_plane_scene() {
+    scene_t sc;
+    sc.width = sc.height = 48;
+    sc.occluders.push_back({-1.2f, 0.2f, -0.1f, 0.9f, 1.6f});
+    return sc;
+}
+
+/// render_sheared over `sc` (IDs as guides) with `s`.
+aaf::image<float> sheared_image(const scene_t& sc, const aaf::sheared_settings<float>& s) {
+    const aaf_test::analytic_gbuffer<float> gb(sc);
+    const aaf_test::span_tracer<float> tracer{&sc};
+    aaf::sheared_workspace<float> ws;
+    aaf::image<float> img(sc.width, sc.height);
+    aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, ws, s);
+    return img;
+}
+
+/// `spp` stored samples per pixel of `gb` (gather_light_samples, pass 0, default sampling otherwise); the rays.
+std::uint64_t gather_samples(const aaf_test::analytic_gbuffer<float>& gb, const aaf_test::span_tracer<float>& tracer,
+                             const aaf::area_light<float>& light, std::uint32_t spp, aaf::light_sample_buffer<float>& samples) {
+    aaf::sampling_settings ss;
+    ss.initial_samples = spp;
+    samples.reset(gb.positions.width(), gb.positions.height(), spp);
+    aaf::image<aaf::occlusion_stats<float>> stats(gb.positions.width(), gb.positions.height());
+    return aaf::gather_light_samples(gb.view(), light, tracer, ss, 0, samples, stats.view());
+}
+
 }  // namespace
 
 TEST_CASE("sheared: shear_of at its limits", "[variants][sheared]") {
@@ -111,12 +139,8 @@ TEST_CASE("sheared: the factored passes equal the exact gather", "[variants][she
     const aaf_test::analytic_gbuffer<float> gb(sc);
     const aaf_test::span_tracer<float> tracer{&sc};
     const aaf::area_light<float> light = sc.area_light();
-    aaf::sampling_settings ss;
-    ss.initial_samples = 4;
     aaf::light_sample_buffer<float> samples;
-    samples.reset(sc.width, sc.height, 4);
-    aaf::image<aaf::occlusion_stats<float>> stats(sc.width, sc.height);
-    const auto rays = aaf::gather_light_samples(gb.view(), light, tracer, ss, 0, samples, stats.view());
+    const auto rays = gather_samples(gb, tracer, light, 4, samples);
     CHECK(rays == 4u * sc.width * sc.height);
 
     aaf::sheared_settings<float> s;
@@ -202,11 +226,7 @@ TEST_CASE("sheared: where occluder depths overlap, narrowing lowers the error fl
     // blur no number of samples removes (sheared.hpp, width_scale). At many samples a narrower filter must
     // win, and the default narrowing (∝ n^-1/4) must keep lowering the error where the fixed width stalls;
     // at 1 spp the wider fixed filter wins (it averages more neighbours), so no one fixed width is best.
-    scene_t sc;
-    sc.width = sc.height = 48;
-    sc.occluders.push_back({-1.2f, 0.2f, -0.1f, 0.9f, 1.6f});
-    const aaf_test::analytic_gbuffer<float> gb(sc);
-    const aaf_test::span_tracer<float> tracer{&sc};
+    const scene_t sc = two_plane_scene();
     const aaf::image<double> exact = sc.exact_image();
     const auto error = [&](std::uint32_t spp, float width_scale, float narrowing) {
         aaf::sheared_settings<float> s;
@@ -215,10 +235,7 @@ TEST_CASE("sheared: where occluder depths overlap, narrowing lowers the error fl
         s.max_slope_ratio = std::numeric_limits<float>::infinity();
         s.width_scale = width_scale;
         s.narrowing_pixels = narrowing;
-        aaf::sheared_workspace<float> ws;
-        aaf::image<float> img(sc.width, sc.height);
-        aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, ws, s);
-        return penumbra_rmse(img, exact);
+        return penumbra_rmse(sheared_image(sc, s), exact);
     };
     const float standard = aaf::sheared_settings<float>{}.narrowing_pixels;
     const double fixed16 = error(16, 1.0f, 0.0f), fixed64 = error(64, 1.0f, 0.0f), quarter64 = error(64, 0.25f, 0.0f);
@@ -234,21 +251,13 @@ TEST_CASE("sheared: where occluder depths overlap, narrowing lowers the error fl
 }
 
 TEST_CASE("sheared: blocked samples keep their occluder's height and move through it", "[variants][sheared]") {
-    // Two occluder planes at heights 1 and 1.6 above the light's plane (y = 3 is the light, the floor y = 0):
-    // every blocked sample's occluder fraction must say which plane stopped it, and moving each through its
-    // own occluder must lower the error where the planes' shadows overlap.
-    scene_t sc;
-    sc.width = sc.height = 48;
-    sc.occluders.push_back({-1.2f, 0.2f, -0.1f, 0.9f, 1.6f});
+    // Two occluder planes at y = 1 and 1.6 between the floor (y = 0) and the light (y = 3): every blocked
+    // sample's occluder fraction must say which plane stopped it.
+    const scene_t sc = two_plane_scene();
     const aaf_test::analytic_gbuffer<float> gb(sc);
     const aaf_test::span_tracer<float> tracer{&sc};
-    const aaf::area_light<float> light = sc.area_light();
-    aaf::sampling_settings ss;
-    ss.initial_samples = 4;
     aaf::light_sample_buffer<float> samples;
-    samples.reset(sc.width, sc.height, 4);
-    aaf::image<aaf::occlusion_stats<float>> stats(sc.width, sc.height);
-    aaf::gather_light_samples(gb.view(), light, tracer, ss, 0, samples, stats.view());
+    gather_samples(gb, tracer, sc.area_light(), 4, samples);
     std::size_t blocked = 0, wrong = 0;
     for (std::size_t y = 0; y < sc.height; ++y)
         for (std::size_t x = 0; x < sc.width; ++x)
@@ -271,17 +280,12 @@ TEST_CASE("sheared: blocked samples keep their occluder's height and move throug
     // so the frame must not change beyond rounding; with the second plane it must not get worse (on this
     // scene the shear's visible samples and the column pass's single shear leave the error where it was:
     // 0.01068 against 0.01064 at 16 spp; the gain is on the meshes, docs/RESULTS.md).
-    const auto render = [&](const scene_t& scene, bool per_sample) {
-        const aaf_test::analytic_gbuffer<float> g(scene);
-        const aaf_test::span_tracer<float> t{&scene};
+    const auto render = [](const scene_t& scene, bool per_sample) {
         aaf::sheared_settings<float> s;
         s.frame.sampling.initial_samples = 16;
         s.max_slope_ratio = std::numeric_limits<float>::infinity();
         s.per_sample_depth = per_sample;
-        aaf::sheared_workspace<float> ws;
-        aaf::image<float> img(scene.width, scene.height);
-        aaf::render_sheared(g.view_with_ids(), scene.area_light(), t, {img.view()}, ws, s);
-        return img;
+        return sheared_image(scene, s);
     };
     scene_t one;
     one.width = one.height = 48;
