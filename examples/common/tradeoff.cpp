@@ -64,30 +64,30 @@ struct context {
     const std::vector<unsigned char>& mask;
 };
 
-/// The error of `image` split by each of the method's regions, over the metric's pixels: the share of those
-/// pixels in the region and of the squared error on them, and the RMSE inside and outside (so that
-/// rmse² = pixel_share·rmse_in² + (1 − pixel_share)·rmse_out²). Non-finite pixels count as an error of 1, as rmse.
+/// The error of the method's image split by each of its regions, over the metric's pixels: the share of those
+/// pixels in the region and of the squared error on them, and the RMSE inside and outside (rmse() over the
+/// metric's mask narrowed to the region and to the rest, so that rmse² = pixel_share·rmse_in² +
+/// (1 − pixel_share)·rmse_out²).
 json region_errors(const method_output& out, const context& ctx) {
     json r = json::object();
-    const aaf::image<float>& ref = ctx.reference;
-    for (const auto& [name, in_region] : out.regions) {
-        if (in_region.size() != ref.size())
-            throw std::logic_error("method region '" + name + "' has " + std::to_string(in_region.size()) + " pixels, the image " +
-                                   std::to_string(ref.size()));
-        double sum_in = 0, sum_out = 0;
+    const std::size_t n = ctx.reference.size();
+    for (const auto& [name, region] : out.regions) {
+        if (region.size() != n)
+            throw std::logic_error("method region '" + name + "' has " + std::to_string(region.size()) + " pixels, the image " +
+                                   std::to_string(n));
+        std::vector<unsigned char> inside(n), outside(n);
         std::size_t n_in = 0, n_out = 0;
-        for (std::size_t i = 0; i < ref.size(); ++i) {
-            if (!ctx.mask.empty() && !ctx.mask[i]) continue;
-            double d = static_cast<double>(out.image.data()[i]) - static_cast<double>(ref.data()[i]);
-            if (!std::isfinite(d)) d = 1;
-            (in_region[i] ? sum_in : sum_out) += d * d;
-            ++(in_region[i] ? n_in : n_out);
+        for (std::size_t i = 0; i < n; ++i) {
+            const bool counted = ctx.mask.empty() || ctx.mask[i];
+            inside[i] = counted && region[i], outside[i] = counted && !region[i];
+            n_in += inside[i], n_out += outside[i];
         }
-        const double n = static_cast<double>(n_in + n_out), total = sum_in + sum_out;
-        r[name] = {{"pixel_share", n > 0 ? static_cast<double>(n_in) / n : 0.0},
+        const double rmse_in = rmse(out.image, ctx.reference, inside), rmse_out = rmse(out.image, ctx.reference, outside);  // 0 when empty
+        const double sum_in = rmse_in * rmse_in * static_cast<double>(n_in), total = sum_in + rmse_out * rmse_out * static_cast<double>(n_out);
+        r[name] = {{"pixel_share", n_in + n_out > 0 ? static_cast<double>(n_in) / static_cast<double>(n_in + n_out) : 0.0},
                    {"error_share", total > 0 ? sum_in / total : 0.0},
-                   {"rmse_in", n_in ? std::sqrt(sum_in / static_cast<double>(n_in)) : 0.0},
-                   {"rmse_out", n_out ? std::sqrt(sum_out / static_cast<double>(n_out)) : 0.0}};
+                   {"rmse_in", rmse_in},
+                   {"rmse_out", rmse_out}};
     }
     return r;
 }
