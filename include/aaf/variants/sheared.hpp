@@ -404,9 +404,9 @@ void sheared_filter(const_image_view<glm::vec<3, T>> positions, const_image_view
                     if (!finite3(pn)) continue;
                     if (xn != x && (!gc.accepts(g, xn, y, cos_thr) || !detail::shear_similar(sh, shears(xn, y), tol))) continue;
                     const T a = std::exp(-detail::plane_distance2(p0, pn, lp.normal) * inv_two_beta2);
-                    const detail::reprojection<T> move(plane(xn, y), q, d2);
-                    if (xn != x && !move.valid) continue;
                     const glm::vec<3, T> from = plane(xn, y);
+                    const detail::reprojection<T> move(from, q, d2);
+                    if (xn != x && !move.valid) continue;
                     for (const light_sample<T>& smp : samples.pixel(xn, y)) {
                         if (smp.state == sample_state::unused) continue;
                         glm::vec<2, T> m(smp.u, smp.v);
