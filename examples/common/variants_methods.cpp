@@ -161,9 +161,9 @@ method progressive_method() {
 /// slopes but occluders nearby) fall back to aaf with its adaptive samples at mu = 2 (max 100); +inf = never.
 /// Unset options keep the library's defaults (sheared_settings).
 struct sheared_options {
-    float max_slope_ratio = 2.0f;
-    float shear_tolerance = 0.5f;
-    std::uint32_t max_radius = 12;
+    float max_slope_ratio = aaf::sheared_settings<float>{}.max_slope_ratio;
+    float shear_tolerance = aaf::sheared_settings<float>{}.shear_tolerance;
+    std::uint32_t max_radius = aaf::sheared_settings<float>{}.max_radius;
     std::uint32_t bins = aaf::sheared_settings<float>{}.bins;
     float bin_margin = aaf::sheared_settings<float>{}.bin_margin;
     float width_scale = aaf::sheared_settings<float>{}.width_scale;
