@@ -250,6 +250,135 @@ TEST_CASE("sheared: where occluder depths overlap, narrowing lowers the error fl
     CHECK(few_wide < few_quarter);
 }
 
+TEST_CASE("sheared: a sample buffer holds each pixel's own count and appends a second pass after the first", "[variants][sheared]") {
+    aaf::image<std::uint32_t> counts(3, 2, 0u);
+    counts(0, 0) = 2, counts(2, 0) = 5, counts(1, 1) = 1;
+    aaf::light_sample_buffer<float> a, b;
+    a.reset(3, 2, 3);
+    CHECK(a.max_samples_per_pixel() == 3);
+    CHECK(a.size() == 18);
+    b.reset(counts.cview());
+    CHECK(b.max_samples_per_pixel() == 5);
+    CHECK(b.size() == 8);
+    CHECK(b.pixel(0, 0).size() == 2);
+    CHECK(b.pixel(1, 0).empty());
+    CHECK(b.pixel(1, 1).size() == 1);
+    // Mark every sample with its pixel and index to see where append puts it.
+    for (std::size_t y = 0; y < 2; ++y)
+        for (std::size_t x = 0; x < 3; ++x) {
+            auto pa = a.pixel(x, y), pb = b.pixel(x, y);
+            for (std::size_t i = 0; i < pa.size(); ++i) pa[i].u = static_cast<float>(10 * (y * 3 + x) + i);
+            for (std::size_t i = 0; i < pb.size(); ++i) pb[i].u = static_cast<float>(100 + 10 * (y * 3 + x) + i);
+        }
+    a.append(b);
+    CHECK(a.size() == 26);
+    CHECK(a.max_samples_per_pixel() == 8);
+    for (std::size_t y = 0; y < 2; ++y)
+        for (std::size_t x = 0; x < 3; ++x) {
+            const auto px = a.pixel(x, y);
+            REQUIRE(px.size() == 3 + counts(x, y));
+            for (std::size_t i = 0; i < px.size(); ++i) {
+                const float want = i < 3 ? static_cast<float>(10 * (y * 3 + x) + i) : static_cast<float>(100 + 10 * (y * 3 + x) + (i - 3));
+                CHECK(px[i].u == want);
+            }
+        }
+    aaf::light_sample_buffer<float> other;
+    other.reset(2, 2, 1);
+    CHECK_THROWS_WITH(a.append(other), Catch::Contains("`more`"));
+}
+
+TEST_CASE("sheared: centre_samples traces the centres' extra samples and no others", "[variants][sheared]") {
+    // Same first pass and shears with and without centre_samples, so the rays differ by exactly the
+    // centres' extra samples, and each pixel's stored samples are its first pass plus (centres only) the rest.
+    const scene_t sc = two_plane_scene();
+    const aaf_test::analytic_gbuffer<float> gb(sc);
+    const aaf_test::span_tracer<float> tracer{&sc};
+    aaf::sheared_settings<float> s;
+    s.frame.sampling.initial_samples = 4;
+    s.max_slope_ratio = std::numeric_limits<float>::infinity();
+    aaf::sheared_workspace<float> one, two;
+    aaf::image<float> img(sc.width, sc.height);
+    const auto base = aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, one, s);
+    s.centre_samples = 16;
+    const auto more = aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, two, s);
+    std::size_t centres = 0, others = 0;
+    for (std::size_t y = 0; y < sc.height; ++y)
+        for (std::size_t x = 0; x < sc.width; ++x) {
+            REQUIRE(two.shears(x, y).center == one.shears(x, y).center);
+            const auto px = two.samples.pixel(x, y);
+            if (two.shears(x, y).center) {
+                ++centres;
+                REQUIRE(px.size() == 16);
+                CHECK(std::equal(px.begin(), px.begin() + 4, one.samples.pixel(x, y).begin(),
+                                 [](const auto& a, const auto& b) { return a.u == b.u && a.v == b.v && a.state == b.state; }));
+                const bool same_points = std::equal(px.begin() + 4, px.begin() + 8, px.begin(),
+                                                    [](const auto& a, const auto& b) { return a.u == b.u && a.v == b.v; });
+                CHECK_FALSE(same_points);  // pass 1's keys, not a copy of pass 0
+            } else {
+                ++others;
+                REQUIRE(px.size() == 4);
+            }
+        }
+    INFO(centres << " centres, " << others << " other pixels");
+    REQUIRE(centres > 100);
+    REQUIRE(others > 100);
+    CHECK(more.initial_rays == base.initial_rays);
+    CHECK(more.adaptive_rays == base.adaptive_rays + 12u * centres);
+    // The workspace is reused: a frame without centre_samples afterwards holds 4 samples everywhere again.
+    s.centre_samples = 0;
+    aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, two, s);
+    CHECK(two.samples.size() == 4u * sc.width * sc.height);
+    // Low discrepancy: a centre's 16 samples are the 16-point sequence of a frame with 16 everywhere.
+    s.frame.sampling.pattern = aaf::sample_pattern::low_discrepancy;
+    s.centre_samples = 16;
+    aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, two, s);
+    s.frame.sampling.initial_samples = 16;
+    s.centre_samples = 0;
+    aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, one, s);
+    std::size_t equal = 0, ld_centres = 0;
+    for (std::size_t y = 0; y < sc.height; ++y)
+        for (std::size_t x = 0; x < sc.width; ++x)
+            if (two.shears(x, y).center)
+                ++ld_centres, equal += std::equal(two.samples.pixel(x, y).begin(), two.samples.pixel(x, y).end(), one.samples.pixel(x, y).begin(),
+                                    one.samples.pixel(x, y).end(),
+                                    [](const auto& a, const auto& b) { return a.u == b.u && a.v == b.v && a.state == b.state; });
+    CHECK(ld_centres > 100);
+    CHECK(equal == ld_centres);
+}
+
+TEST_CASE("sheared: centre_samples reaches the error of as many samples everywhere with fewer rays", "[variants][sheared]") {
+    // The error is on the centres, so the lit pixels around need no more than their first pass. With the
+    // low-discrepancy pattern the second pass continues each centre's sequence (one net of 16) and the
+    // centres' shears are recomputed from all 16 samples, so the frame must match 16 samples everywhere;
+    // stratified samples come as a second, independent set (4 + 12 strata: less even than 16).
+    const scene_t sc = two_plane_scene();
+    const aaf::image<double> exact = sc.exact_image();
+    const aaf_test::analytic_gbuffer<float> gb(sc);
+    const aaf_test::span_tracer<float> tracer{&sc};
+    for (const auto pattern : {aaf::sample_pattern::stratified, aaf::sample_pattern::low_discrepancy}) {
+        const auto run = [&](std::uint32_t initial, std::uint32_t centre) {
+            aaf::sheared_settings<float> s;
+            s.frame.sampling.initial_samples = initial;
+            s.frame.sampling.pattern = pattern;
+            s.centre_samples = centre;
+            s.max_slope_ratio = std::numeric_limits<float>::infinity();
+            aaf::sheared_workspace<float> ws;
+            aaf::image<float> img(sc.width, sc.height);
+            const auto r = aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, ws, s);
+            return std::pair{penumbra_rmse(img, exact), r.rays()};
+        };
+        const auto [e4, rays4] = run(4, 0);
+        const auto [e16, rays16] = run(16, 0);
+        const auto [e4_16, rays4_16] = run(4, 16);
+        INFO((pattern == aaf::sample_pattern::stratified ? "stratified" : "low discrepancy")
+             << ": penumbra RMSE (rays): 4 spp " << e4 << " (" << rays4 << "), 16 spp " << e16 << " (" << rays16 << "), 4 + centres 16 "
+             << e4_16 << " (" << rays4_16 << ")");
+        CHECK(e4_16 < 0.7 * e4);
+        CHECK(e4_16 < (pattern == aaf::sample_pattern::stratified ? 1.2 : 1.01) * e16);
+        CHECK(rays4_16 < rays16);
+    }
+}
+
 TEST_CASE("sheared: blocked samples keep their occluder's height and move through it", "[variants][sheared]") {
     // Two occluder planes at y = 1 and 1.6 between the floor (y = 0) and the light (y = 3): every blocked
     // sample's occluder fraction must say which plane stopped it.
@@ -335,6 +464,11 @@ TEST_CASE("sheared: bad input throws naming the argument", "[variants][sheared]"
     s = {};
     s.shear_tolerance = std::nanf("");
     throws_with([&] { aaf::render_sheared(gb.view(), light, tracer, {out.view()}, ws, s); }, "settings.shear_tolerance");
+    s = {};
+    for (const std::uint32_t bad : {1u, 8u, 5000u}) {  // below initial_samples (9), above 4096
+        s.centre_samples = bad;
+        throws_with([&] { aaf::render_sheared(gb.view(), light, tracer, {out.view()}, ws, s); }, "settings.centre_samples");
+    }
     aaf::light_sample_buffer<float> samples;
     samples.reset(8, 8, 4);
     aaf::image<aaf::occlusion_stats<float>> stats(sc.width, sc.height);
