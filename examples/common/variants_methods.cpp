@@ -170,6 +170,10 @@ struct sheared_options {
     float narrowing_pixels = aaf::sheared_settings<float>{}.narrowing_pixels;
     bool per_sample_depth = aaf::sheared_settings<float>{}.per_sample_depth;
     std::vector<double> sweep = {1, 2, 4, 9, 16, 25};  ///< samples kept per pixel
+    /// 0: the knob is every pixel's samples (one pass). Otherwise every pixel gets min(knob, first_pass)
+    /// and the centres end with the knob's (sheared_settings::centre_samples).
+    std::uint32_t first_pass = 0;
+    aaf::sample_pattern pattern = aaf::sample_pattern::stratified;
 };
 
 /// The settings of the sheared entries registered before the narrowing (docs/RESULTS.md's first tables).
@@ -188,9 +192,15 @@ method sheared_method(std::string name, std::string description, sheared_options
     base.width_scale = o.width_scale;
     base.narrowing_pixels = o.narrowing_pixels;
     base.per_sample_depth = o.per_sample_depth;
+    base.frame.sampling.pattern = o.pattern;
     json j;
     j["description"] = description;
-    j["knob"] = "initial_samples (samples stored per pixel, stratified)";
+    j["knob"] = o.first_pass == 0 ? "initial_samples (samples stored per pixel, stratified)"
+                                  : "centre_samples (samples a sheared centre ends with; every pixel first gets min(knob, first_pass))";
+    if (o.first_pass != 0) j["first_pass"] = o.first_pass;
+    j["pattern"] = o.pattern == aaf::sample_pattern::low_discrepancy ? "low_discrepancy (a centre's second pass continues its sequence)"
+                   : o.pattern == aaf::sample_pattern::regular_grid  ? "regular_grid"
+                                                                     : "stratified";
     j["max_slope_ratio"] = std::isinf(o.max_slope_ratio) ? json("inf") : json(o.max_slope_ratio);
     j["shear_tolerance"] = base.shear_tolerance;
     j["bins_per_light_width"] = base.bins;
@@ -208,7 +218,7 @@ method sheared_method(std::string name, std::string description, sheared_options
         .name = std::move(name),
         .family = "variants",
         .what = quantity::shadow,
-        .knob = "initial_samples",
+        .knob = o.first_pass == 0 ? "initial_samples" : "centre_samples",
         .sweep = o.sweep,
         .quick_sweep = {1, 4},
         .doubling_sweep = false,
@@ -218,12 +228,14 @@ method sheared_method(std::string name, std::string description, sheared_options
         .render = {},
         .own_reference = {},
     };
-    m.render = [base](const render_inputs& in, double knob) {
+    m.render = [base, first_pass = o.first_pass](const render_inputs& in, double knob) {
         const gbuffer_images& g = in.g;
         const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{g.positions.cview(), g.normals.cview(), g.pixel_size.cview(),
                                                                           g.ids.cview()};
         aaf::sheared_settings<float> s = base;
-        s.frame.sampling.initial_samples = static_cast<std::uint32_t>(knob);
+        const auto samples = static_cast<std::uint32_t>(knob);
+        s.frame.sampling.initial_samples = first_pass == 0 ? samples : std::min(samples, first_pass);
+        s.centre_samples = first_pass == 0 ? 0 : samples;
         s.frame.sampling.max_samples = std::max<std::uint32_t>(100, s.frame.sampling.initial_samples);
         s.frame.sampling.frame_seed = in.seed;
         s.frame.radiance = in.s.radiance;
@@ -247,6 +259,7 @@ method sheared_method(std::string name, std::string description, sheared_options
         out.rays = r.rays();
         out.stages_ms = {{"rays", r.initial_ms + r.adaptive_ms}, {"formulas", r.formulas_ms}, {"filter", r.filter_ms}};
         out.point_settings = {{"initial_samples", s.frame.sampling.initial_samples},
+                              {"centre_samples", s.samples_per_centre()},
                               {"sheared_pixels", centres},
                               {"sample_bytes", ws.samples.bytes()},
                               {"bin_bytes", ws.bins.size() * sizeof(ws.bins[0])}};
@@ -303,6 +316,10 @@ method_family variant_methods() {
                        "times sqrt(3 px x wedge width), blocked samples moved through their own occluder in the row pass), "
                        "no fallback on s1/s2: its bias falls as samples grow",
                        {.max_slope_ratio = inf, .sweep = {1, 2, 4, 9, 16, 25, 36, 64}}),
+        sheared_method("aaf_sheared_adaptive",
+                       "as aaf_sheared_consistent with the rays where its error is: every pixel min(4, knob) samples, "
+                       "the sheared centres end with the knob's (sheared_settings::centre_samples)",
+                       {.max_slope_ratio = inf, .sweep = {1, 2, 4, 9, 16, 25, 36, 64, 100}, .first_pass = 4}),
     };
     const char* sweep = std::getenv("AAF_VARIANTS_SWEEP");
     if (sweep != nullptr && std::string(sweep) == "1") {
@@ -324,6 +341,15 @@ method_family variant_methods() {
             f.methods.push_back(sheared_method("sheared_narrow_" + std::to_string(static_cast<int>(r * 1000)),
                                                "sweep candidate: aaf_sheared_consistent at another narrowing_pixels (in thousandths)",
                                                {.max_slope_ratio = inf, .narrowing_pixels = r}));
+        for (std::uint32_t first : {2u, 9u})
+            f.methods.push_back(sheared_method("sheared_adaptive_f" + std::to_string(first),
+                                               "sweep candidate: aaf_sheared_adaptive with another first pass",
+                                               {.max_slope_ratio = inf, .sweep = {1, 2, 4, 9, 16, 25, 36, 64, 100}, .first_pass = first}));
+        f.methods.push_back(sheared_method("sheared_adaptive_ld",
+                                           "sweep candidate: aaf_sheared_adaptive with low-discrepancy samples (a centre's second pass "
+                                           "continues its sequence)",
+                                           {.max_slope_ratio = inf, .sweep = {1, 2, 4, 9, 16, 25, 36, 64, 100}, .first_pass = 4,
+                                            .pattern = aaf::sample_pattern::low_discrepancy}));
     }
     return f;
 }
