@@ -379,6 +379,44 @@ TEST_CASE("sheared: centre_samples reaches the error of as many samples everywhe
     }
 }
 
+TEST_CASE("sheared: fallback_mu raises aaf's mu on the fallback pixels only", "[variants][sheared]") {
+    // With max_slope_ratio 1 every pixel with two depths falls back to aaf; a larger μ there must give those
+    // pixels more samples and narrower filters and leave the sheared centres' samples and shears alone.
+    const scene_t sc = two_plane_scene();
+    const aaf_test::analytic_gbuffer<float> gb(sc);
+    const aaf_test::span_tracer<float> tracer{&sc};
+    aaf::sheared_settings<float> s;
+    s.frame.sampling.initial_samples = 4;
+    s.frame.sampling.max_samples = 400;
+    s.max_slope_ratio = 1.0f;
+    aaf::sheared_workspace<float> at2, at4;
+    aaf::image<float> img(sc.width, sc.height);
+    const auto r2 = aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, at2, s);
+    s.fallback_mu = 4.0f;
+    const auto r4 = aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, at4, s);
+    CHECK(r4.initial_rays == r2.initial_rays);
+    CHECK(r4.adaptive_rays > r2.adaptive_rays);
+    std::size_t fallback = 0, narrower = 0, centres = 0;
+    for (std::size_t y = 0; y < sc.height; ++y)
+        for (std::size_t x = 0; x < sc.width; ++x) {
+            const bool centre = at2.shears(x, y).center;
+            REQUIRE(at4.shears(x, y).center == centre);
+            if (centre) {
+                ++centres;
+                CHECK(at4.shears(x, y).beta == at2.shears(x, y).beta);
+                CHECK(at4.frame.adaptive_samples(x, y) == 0);
+            } else if (at2.frame.filter_width(x, y) > 0.0f) {
+                ++fallback;
+                CHECK(at4.frame.adaptive_samples(x, y) >= at2.frame.adaptive_samples(x, y));
+                narrower += at4.frame.filter_width(x, y) < at2.frame.filter_width(x, y) ? 1 : 0;
+            }
+        }
+    INFO(centres << " centres, " << fallback << " filtered fallback pixels, " << narrower << " narrower at mu 4");
+    CHECK(centres > 50);
+    CHECK(fallback > 50);
+    CHECK(narrower == fallback);
+}
+
 TEST_CASE("sheared: blocked samples keep their occluder's height and move through it", "[variants][sheared]") {
     // Two occluder planes at y = 1 and 1.6 between the floor (y = 0) and the light (y = 3): every blocked
     // sample's occluder fraction must say which plane stopped it.
@@ -464,6 +502,12 @@ TEST_CASE("sheared: bad input throws naming the argument", "[variants][sheared]"
     s = {};
     s.shear_tolerance = std::nanf("");
     throws_with([&] { aaf::render_sheared(gb.view(), light, tracer, {out.view()}, ws, s); }, "settings.shear_tolerance");
+    s = {};
+    s = {};
+    for (const float bad : {-1.0f, 0.5f, std::nanf(""), std::numeric_limits<float>::infinity()}) {
+        s.fallback_mu = bad;
+        throws_with([&] { aaf::render_sheared(gb.view(), light, tracer, {out.view()}, ws, s); }, "settings.fallback_mu");
+    }
     s = {};
     for (const std::uint32_t bad : {1u, 8u, 5000u}) {  // below initial_samples (9), above 4096
         s.centre_samples = bad;

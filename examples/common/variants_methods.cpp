@@ -174,6 +174,9 @@ struct sheared_options {
     /// and the centres end with the knob's (sheared_settings::centre_samples).
     std::uint32_t first_pass = 0;
     aaf::sample_pattern pattern = aaf::sample_pattern::stratified;
+    /// 0: the fallback pixels keep aaf at μ = 2. Otherwise the knob at which their μ starts growing as
+    /// 2·√(knob / this) (aaf's samples grow about as μ², the centres' as the knob), cap 25·μ² samples.
+    double fallback_grows_from = 0;
 };
 
 /// The settings of the sheared entries registered before the narrowing (docs/RESULTS.md's first tables).
@@ -198,6 +201,9 @@ method sheared_method(std::string name, std::string description, sheared_options
     j["knob"] = o.first_pass == 0 ? "initial_samples (samples stored per pixel, stratified)"
                                   : "centre_samples (samples a sheared centre ends with; every pixel first gets min(knob, first_pass))";
     if (o.first_pass != 0) j["first_pass"] = o.first_pass;
+    if (o.fallback_grows_from > 0)
+        j["fallback_mu"] = "2 * sqrt(knob / " + std::to_string(static_cast<int>(o.fallback_grows_from)) +
+                           ") above that knob, else 2; fallback max_samples 25 mu^2";
     j["pattern"] = o.pattern == aaf::sample_pattern::low_discrepancy ? "low_discrepancy (a centre's second pass continues its sequence)"
                    : o.pattern == aaf::sample_pattern::regular_grid  ? "regular_grid"
                                                                      : "stratified";
@@ -228,7 +234,7 @@ method sheared_method(std::string name, std::string description, sheared_options
         .render = {},
         .own_reference = {},
     };
-    m.render = [base, first_pass = o.first_pass](const render_inputs& in, double knob) {
+    m.render = [base, first_pass = o.first_pass, grows_from = o.fallback_grows_from](const render_inputs& in, double knob) {
         const gbuffer_images& g = in.g;
         const aaf::gbuffer<float, aaf::const_image_view<std::uint32_t>> gb{g.positions.cview(), g.normals.cview(), g.pixel_size.cview(),
                                                                           g.ids.cview()};
@@ -237,6 +243,10 @@ method sheared_method(std::string name, std::string description, sheared_options
         s.frame.sampling.initial_samples = first_pass == 0 ? samples : std::min(samples, first_pass);
         s.centre_samples = first_pass == 0 ? 0 : samples;
         s.frame.sampling.max_samples = std::max<std::uint32_t>(100, s.frame.sampling.initial_samples);
+        if (grows_from > 0 && knob > grows_from) {
+            s.fallback_mu = static_cast<float>(2.0 * std::sqrt(knob / grows_from));
+            s.frame.sampling.max_samples = std::max(s.frame.sampling.max_samples, static_cast<std::uint32_t>(std::ceil(25.0 * static_cast<double>(s.fallback_mu) * static_cast<double>(s.fallback_mu))));
+        }
         s.frame.sampling.frame_seed = in.seed;
         s.frame.radiance = in.s.radiance;
         aaf::sheared_workspace<float> ws;
@@ -259,6 +269,7 @@ method sheared_method(std::string name, std::string description, sheared_options
         out.rays = r.rays();
         out.stages_ms = {{"rays", r.initial_ms + r.adaptive_ms}, {"formulas", r.formulas_ms}, {"filter", r.filter_ms}};
         out.point_settings = {{"initial_samples", s.frame.sampling.initial_samples},
+                              {"fallback_mu", s.fallback_mu > 0 ? s.fallback_mu : s.frame.formulas.mu},
                               {"centre_samples", s.samples_per_centre()},
                               {"sheared_pixels", centres},
                               {"sample_bytes", ws.samples.bytes()},
@@ -345,6 +356,12 @@ method_family variant_methods() {
             f.methods.push_back(sheared_method("sheared_adaptive_f" + std::to_string(first),
                                                "sweep candidate: aaf_sheared_adaptive with another first pass",
                                                {.max_slope_ratio = inf, .sweep = {1, 2, 4, 9, 16, 25, 36, 64, 100}, .first_pass = first}));
+        for (double from : {16.0, 25.0})
+            f.methods.push_back(sheared_method("sheared_adaptive_fb" + std::to_string(static_cast<int>(from)),
+                                               "sweep candidate: aaf_sheared_adaptive with the fallback's mu growing as 2 sqrt(knob / " +
+                                                   std::to_string(static_cast<int>(from)) + ")",
+                                               {.max_slope_ratio = inf, .sweep = {1, 2, 4, 9, 16, 25, 36, 64, 100, 144},
+                                                .first_pass = 4, .fallback_grows_from = from}));
         f.methods.push_back(sheared_method("sheared_adaptive_ld",
                                            "sweep candidate: aaf_sheared_adaptive with low-discrepancy samples (a centre's second pass "
                                            "continues its sequence)",

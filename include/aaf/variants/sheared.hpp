@@ -217,6 +217,11 @@ struct sheared_settings {
     /// adaptive pass does (FORMULAS.md §9.3 "Sampling rate"). The narrowing above counts these samples.
     /// 0 = initial_samples (one pass); otherwise [initial_samples, 4096].
     std::uint32_t centre_samples = 0;
+    /// μ of aaf's formulas on the fallback pixels (their filter width and adaptive samples), so that they can
+    /// follow the centres down as centre_samples grows: at a fixed μ = 2 they keep aaf's μ = 2 error, a floor
+    /// under the whole frame's (docs/RESULTS.md: plant 0.0078 outside the centres at every knob). 0 = the
+    /// μ of `frame.formulas` (which the sheared centres' wedge always uses); otherwise finite and ≥ 1.
+    T fallback_mu = T(0);
     /// The samples a centre ends with (initial_samples when centre_samples is 0).
     [[nodiscard]] std::uint32_t samples_per_centre() const noexcept {
         return std::max(centre_samples, frame.sampling.initial_samples);
@@ -241,6 +246,8 @@ void validate(const sheared_settings<T>& s, const char* function = "validate") {
         detail::throw_invalid(function, "`settings.width_scale` must be in (0, 1] (got " + std::to_string(s.width_scale) + ")");
     if (!(s.narrowing_pixels >= T(0)))
         detail::throw_invalid(function, "`settings.narrowing_pixels` must be in [0, inf] (got " + std::to_string(s.narrowing_pixels) + ")");
+    if (!(s.fallback_mu == T(0) || (std::isfinite(s.fallback_mu) && s.fallback_mu >= T(1))))
+        detail::throw_invalid(function, "`settings.fallback_mu` must be 0 or finite and >= 1 (got " + std::to_string(s.fallback_mu) + ")");
     if (s.centre_samples != 0 && (s.centre_samples < s.frame.sampling.initial_samples || s.centre_samples > 4096))
         detail::throw_invalid(function, "`settings.centre_samples` must be 0 or in [frame.sampling.initial_samples = " +
                                             std::to_string(s.frame.sampling.initial_samples) + ", 4096] (got " +
@@ -654,6 +661,8 @@ frame_report render_sheared(const gbuffer<T, Ids>& gb, const area_light<T>& ligh
     if (ws.shears.width() != w || ws.shears.height() != h) ws.shears.reset(w, h), ws.sheared.reset(w, h);
     const sampling_settings& ss = settings.frame.sampling;
     const formula_settings<T>& fs = settings.frame.formulas;
+    formula_settings<T> fallback = fs;  // aaf's formulas on the pixels that are not sheared centres
+    if (settings.fallback_mu > T(0)) fallback.mu = settings.fallback_mu;
     ws.samples.reset(w, h, ss.initial_samples);  // the last frame's centres may have appended theirs
     if (ws.centre_extra_counts.width() != w || ws.centre_extra_counts.height() != h) ws.centre_extra_counts.reset(w, h);
     const std::uint32_t centre_extra = settings.samples_per_centre() - ss.initial_samples;
@@ -682,12 +691,12 @@ frame_report render_sheared(const gbuffer<T, Ids>& gb, const area_light<T>& ligh
                 const T d = gb.pixel_size(x, y);
                 const shear<T> sh = shear_of(fw.slopes(x, y), sigma, d, settings);
                 ws.shears(x, y) = sh;
-                fw.filter_width(x, y) = sh.center ? T(0) : filter_width(fw.slopes(x, y), sigma, d, fs);
+                fw.filter_width(x, y) = sh.center ? T(0) : filter_width(fw.slopes(x, y), sigma, d, fallback);
                 // aaf's pixels follow render_frame's horizon rule (the sheared centres have their own gather).
                 if (horizon_rule && detail::straddles_horizon_at(gb, light, centre, x, y)) fw.filter_width(x, y) = T(0);
                 std::uint32_t extra = 0;
                 if (!sh.center && ss.adaptive && fw.slopes(x, y).has_occluder()) {
-                    const std::uint32_t n = target_samples(sample_count(fw.slopes(x, y), sigma, d, fs), ss.initial_samples, ss.max_samples);
+                    const std::uint32_t n = target_samples(sample_count(fw.slopes(x, y), sigma, d, fallback), ss.initial_samples, ss.max_samples);
                     extra = n - ss.initial_samples;
                 }
                 fw.adaptive_samples(x, y) = extra;
