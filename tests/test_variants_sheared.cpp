@@ -379,6 +379,31 @@ TEST_CASE("sheared: centre_samples reaches the error of as many samples everywhe
     }
 }
 
+TEST_CASE("sheared: a reused workspace gives the frames of fresh ones, also when the bins change", "[variants][sheared]") {
+    // The row pass clears only the bins it writes and marks them occupied; a workspace resized between
+    // frames (other bins, other samples) must not leak a former frame's bins into the column pass.
+    const scene_t sc = two_plane_scene();
+    const aaf_test::analytic_gbuffer<float> gb(sc);
+    const aaf_test::span_tracer<float> tracer{&sc};
+    const auto frame = [&](aaf::sheared_workspace<float>& ws, std::uint32_t bins, std::uint32_t spp) {
+        aaf::sheared_settings<float> s;
+        s.frame.sampling.initial_samples = spp;
+        s.bins = bins;
+        s.max_slope_ratio = std::numeric_limits<float>::infinity();
+        aaf::image<float> img(sc.width, sc.height);
+        aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, ws, s);
+        return img;
+    };
+    aaf::sheared_workspace<float> reused;
+    reused.resize(sc.width, sc.height, aaf::sheared_settings<float>{});
+    for (const auto& [bins, spp] : {std::pair{8u, 16u}, std::pair{4u, 4u}, std::pair{8u, 4u}, std::pair{12u, 9u}}) {
+        aaf::sheared_workspace<float> fresh;
+        const aaf::image<float> a = frame(reused, bins, spp), b = frame(fresh, bins, spp);
+        INFO(bins << " bins, " << spp << " spp");
+        CHECK(std::equal(a.data(), a.data() + a.size(), b.data(), [](float x, float y) { return x == y || (x != x && y != y); }));
+    }
+}
+
 TEST_CASE("sheared: fallback_mu raises aaf's mu on the fallback pixels only", "[variants][sheared]") {
     // With max_slope_ratio 1 every pixel with two depths falls back to aaf; a larger μ there must give those
     // pixels more samples and narrower filters and leave the sheared centres' samples and shears alone.

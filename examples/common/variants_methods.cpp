@@ -250,6 +250,7 @@ method sheared_method(std::string name, std::string description, sheared_options
         s.frame.sampling.frame_seed = in.seed;
         s.frame.radiance = in.s.radiance;
         aaf::sheared_workspace<float> ws;
+        ws.resize(in.s.width, in.s.height, s);  // allocation is not part of a frame (as aaf's frame_workspace)
         method_output out;
         out.image = aaf::image<float>(in.s.width, in.s.height);
         const aaf::frame_report r = aaf::render_sheared(gb, in.s.light, in.tracer, {out.image.view()}, ws, s, in.pool);

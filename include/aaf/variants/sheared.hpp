@@ -23,6 +23,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -404,10 +405,31 @@ struct sheared_workspace {
     image<shear<T>> shears;          ///< every pixel's shear
     std::vector<bin> bins;           ///< row pass: bins_per_axis² per pixel
     std::size_t bins_per_axis = 0;
+    /// Row pass: which of a pixel's bins hold samples, one bit each (bin_words words per pixel), so that the
+    /// column pass reads only those, in the same order.
+    std::vector<std::uint64_t> occupied;
+    std::size_t bin_words = 0;
     image<T> sheared;                ///< sheared filter's output (NaN where not a centre)
     /// aaf's buffers (statistics, slopes, β, its filter) for the fallback; after render_sheared,
     /// `frame.filtered` holds the frame's result before clamping (`sheared` on the centres, aaf's elsewhere).
     frame_workspace<T> frame;
+
+    /// Allocates what a w×h frame with settings `s` needs (the centres' second pass excepted: its size
+    /// depends on the frame), so that a renderer's first frame does not pay for it (as frame_workspace::resize).
+    void resize(std::size_t w, std::size_t h, const sheared_settings<T>& s) {
+        frame.resize(w, h);
+        if (shears.width() != w || shears.height() != h) shears.reset(w, h), sheared.reset(w, h);
+        if (centre_extra_counts.width() != w || centre_extra_counts.height() != h) centre_extra_counts.reset(w, h);
+        samples.reset(w, h, s.frame.sampling.initial_samples);
+        const std::size_t nb = bins_for(s);
+        bins_per_axis = nb, bin_words = (nb * nb + 63) / 64;
+        if (bins.size() != w * h * nb * nb) bins.resize(w * h * nb * nb);
+        if (occupied.size() != w * h * bin_words) occupied.resize(w * h * bin_words);
+    }
+    /// Bins per axis of the row pass: bins · (1 + 2·bin_margin), rounded up.
+    [[nodiscard]] static std::size_t bins_for(const sheared_settings<T>& s) noexcept {
+        return static_cast<std::size_t>(std::ceil(static_cast<T>(s.bins) * (T(1) + T(2) * s.bin_margin)));
+    }
 };
 
 /// The two factored passes of the sheared filter over stored samples, on every pixel whose shear is a
@@ -445,9 +467,13 @@ void sheared_filter(const_image_view<glm::vec<3, T>> positions, const_image_view
     const T tol = s.shear_tolerance, trunc = s.frame.filter.truncation;
     const T cos_thr = std::cos(s.frame.filter.normal_threshold_degrees * T(3.14159265358979323846) / T(180));
     const T B = static_cast<T>(s.bins), margin = s.bin_margin;
-    const std::size_t nb = static_cast<std::size_t>(std::ceil(B * (T(1) + T(2) * margin)));
+    const std::size_t nb = sheared_workspace<T>::bins_for(s);
     ws.bins_per_axis = nb;
-    ws.bins.assign(w * h * nb * nb, typename sheared_workspace<T>::bin{});
+    // Sized here, cleared per pixel by the row pass (one sweep over the 2.3 KB a pixel instead of two).
+    if (ws.bins.size() != w * h * nb * nb) ws.bins.resize(w * h * nb * nb);
+    const std::size_t words = (nb * nb + 63) / 64;
+    ws.bin_words = words;
+    if (ws.occupied.size() != w * h * words) ws.occupied.resize(w * h * words);
     const auto plane = [&](std::size_t x, std::size_t y) { return lp.coords(positions(x, y)); };
     const auto finite3 = [](const glm::vec<3, T>& p) { return std::isfinite(p.x + p.y + p.z); };
 
@@ -457,6 +483,9 @@ void sheared_filter(const_image_view<glm::vec<3, T>> positions, const_image_view
         for (std::size_t y = y0; y < y1; ++y)
             for (std::size_t x = 0; x < w; ++x) {
                 typename sheared_workspace<T>::bin* out = ws.bins.data() + (y * w + x) * nb * nb;
+                std::uint64_t* used = ws.occupied.data() + (y * w + x) * words;
+                std::fill_n(out, nb * nb, typename sheared_workspace<T>::bin{});
+                std::fill_n(used, words, std::uint64_t{0});
                 const glm::vec<3, T> p0 = positions(x, y);
                 if (!finite3(p0)) continue;
                 const shear<T> sh = shears(x, y);
@@ -483,7 +512,9 @@ void sheared_filter(const_image_view<glm::vec<3, T>> positions, const_image_view
                         else if (xn != x) m = move(m);
                         const T bu = std::floor((m.x + margin) * B), bv = std::floor((m.y + margin) * B);
                         if (!(bu >= T(0) && bu < static_cast<T>(nb) && bv >= T(0) && bv < static_cast<T>(nb))) continue;
-                        auto& b = out[static_cast<std::size_t>(bv) * nb + static_cast<std::size_t>(bu)];
+                        const std::size_t at = static_cast<std::size_t>(bv) * nb + static_cast<std::size_t>(bu);
+                        auto& b = out[at];
+                        used[at / 64] |= std::uint64_t{1} << (at % 64);
                         b.w += a, b.wu += a * m.x, b.wy += a * m.y;
                         if (smp.state == sample_state::visible) b.wv += a;
                     }
@@ -520,19 +551,23 @@ void sheared_filter(const_image_view<glm::vec<3, T>> positions, const_image_view
                     const detail::reprojection<T> move(plane(x, yn), q, d2);
                     if (yn != y && !move.valid) continue;
                     const typename sheared_workspace<T>::bin* in = ws.bins.data() + (yn * w + x) * nb * nb;
-                    for (std::size_t i = 0; i < nb * nb; ++i) {
-                        const auto& b = in[i];
-                        if (!(b.w > T(0))) continue;
-                        glm::vec<2, T> m(b.wu / b.w, b.wy / b.w);
-                        if (yn != y) m = move(m);
-                        const T l = lp.profile_box(m.x, m.y, half_bin);
-                        if (!(l > T(0))) continue;
-                        if (per_cell) {
-                            const auto cu = static_cast<std::size_t>(std::clamp(m.x * B, T(0), B - T(1)));
-                            const auto cv = static_cast<std::size_t>(std::clamp(m.y * B, T(0), B - T(1)));
-                            cell_num[cv * s.bins + cu] += a * l * b.wv, cell_den[cv * s.bins + cu] += a * l * b.w;
-                        } else {
-                            num += a * l * b.wv, den += a * l * b.w;
+                    const std::uint64_t* used = ws.occupied.data() + (yn * w + x) * words;
+                    // The occupied bins in ascending order, as a loop over all of them that skips the empty ones.
+                    for (std::size_t word = 0; word < words; ++word) {
+                        for (std::uint64_t bits = used[word]; bits != 0; bits &= bits - 1) {
+                            const auto& b = in[word * 64 + static_cast<std::size_t>(std::countr_zero(bits))];
+                            if (!(b.w > T(0))) continue;
+                            glm::vec<2, T> m(b.wu / b.w, b.wy / b.w);
+                            if (yn != y) m = move(m);
+                            const T l = lp.profile_box(m.x, m.y, half_bin);
+                            if (!(l > T(0))) continue;
+                            if (per_cell) {
+                                const auto cu = static_cast<std::size_t>(std::clamp(m.x * B, T(0), B - T(1)));
+                                const auto cv = static_cast<std::size_t>(std::clamp(m.y * B, T(0), B - T(1)));
+                                cell_num[cv * s.bins + cu] += a * l * b.wv, cell_den[cv * s.bins + cu] += a * l * b.w;
+                            } else {
+                                num += a * l * b.wv, den += a * l * b.w;
+                            }
                         }
                     }
                 }
