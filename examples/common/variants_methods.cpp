@@ -245,7 +245,8 @@ method sheared_method(std::string name, std::string description, sheared_options
         s.frame.sampling.max_samples = std::max<std::uint32_t>(100, s.frame.sampling.initial_samples);
         if (grows_from > 0 && knob > grows_from) {
             s.fallback_mu = static_cast<float>(2.0 * std::sqrt(knob / grows_from));
-            s.frame.sampling.max_samples = std::max(s.frame.sampling.max_samples, static_cast<std::uint32_t>(std::ceil(25.0 * static_cast<double>(s.fallback_mu) * static_cast<double>(s.fallback_mu))));
+            const double mu = static_cast<double>(s.fallback_mu);
+            s.frame.sampling.max_samples = std::max(s.frame.sampling.max_samples, static_cast<std::uint32_t>(std::ceil(25.0 * mu * mu)));
         }
         s.frame.sampling.frame_seed = in.seed;
         s.frame.radiance = in.s.radiance;

@@ -211,7 +211,9 @@ struct sheared_settings {
     /// they belong on the light (docs/DEVIATIONS.md H9; the column pass still moves bins with one shear).
     bool per_sample_depth = true;
     /// Samples a sheared centre ends with, its initial ones included: render_sheared traces the difference in
-    /// a second pass (pass 1) and stores it beside the first, while every other pixel keeps
+    /// a second pass (pass 1; with sample_pattern::low_discrepancy the rest of the centre's pass-0 sequence,
+    /// so that its samples are one net) and stores it after the first, recomputing the centres' shears from
+    /// all of them (DEVIATIONS.md H10), while every other pixel keeps
     /// `frame.sampling.initial_samples` (fallback pixels: aaf's adaptive samples). The centres are where the
     /// sheared filter's error is (docs/RESULTS.md: 87–100 % of it on nine of ten scenes at 16 spp) and a
     /// fully lit pixel needs only enough samples to find no occluder, so the rays go where they pay, as aaf's
@@ -667,8 +669,10 @@ std::uint64_t gather_light_samples(const gbuffer<T, Ids>& gb, const area_light<T
 /// 1. `settings.frame.sampling.initial_samples` samples per pixel, stored (gather_light_samples, pass 0);
 /// 2. slopes, spread to unoccluded neighbours (§1.12), and each pixel's shear (shear_of);
 /// 3. pixels that are not sheared centres but have slopes get aaf's adaptive samples (visibility only,
-///    pass 1, n(μ) capped at max_samples) and aaf's filter (image-space offsets, normals and IDs); the
-///    centres get settings.centre_samples − initial_samples more stored samples (pass 1), if any;
+///    pass 1, n(μ) capped at max_samples, μ = settings.fallback_mu if set) and aaf's filter (image-space
+///    offsets, normals and IDs); the centres get settings.centre_samples − initial_samples more stored
+///    samples (pass 1, or the rest of their pass-0 sequence with low-discrepancy samples), if any, and their
+///    shears again from all their samples;
 /// 4. the sheared passes (sheared_filter) on the centres.
 /// report.adaptive_rays counts both second passes.
 /// Outputs and the report's pixel counts as render_frame's (sky 1, no light 0, clamped to [0, 1];
