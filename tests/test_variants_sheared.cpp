@@ -49,13 +49,26 @@ scene_t two_plane_scene() {
     return sc;
 }
 
-/// render_sheared over `sc` (IDs as guides) with `s`.
+/// A scene with its G-buffer and tracer, rendered by render_sheared (IDs as guides). Not copyable: the
+/// tracer points at the scene.
+struct scene_frame {
+    scene_t sc;
+    aaf_test::analytic_gbuffer<float> gb{sc};
+    aaf_test::span_tracer<float> tracer{&sc};
+    explicit scene_frame(scene_t scene) : sc(std::move(scene)) {}
+    scene_frame(const scene_frame&) = delete;
+    scene_frame& operator=(const scene_frame&) = delete;
+    aaf::frame_report render(aaf::image<float>& img, aaf::sheared_workspace<float>& ws, const aaf::sheared_settings<float>& s) const {
+        return aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, ws, s);
+    }
+};
+
+/// render_sheared over `sc` with `s`, in a workspace of its own.
 aaf::image<float> sheared_image(const scene_t& sc, const aaf::sheared_settings<float>& s) {
-    const aaf_test::analytic_gbuffer<float> gb(sc);
-    const aaf_test::span_tracer<float> tracer{&sc};
+    const scene_frame f(sc);
     aaf::sheared_workspace<float> ws;
     aaf::image<float> img(sc.width, sc.height);
-    aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, ws, s);
+    f.render(img, ws, s);
     return img;
 }
 
@@ -290,17 +303,16 @@ TEST_CASE("sheared: a sample buffer holds each pixel's own count and appends a s
 TEST_CASE("sheared: centre_samples traces the centres' extra samples and no others", "[variants][sheared]") {
     // Same first pass and shears with and without centre_samples, so the rays differ by exactly the
     // centres' extra samples, and each pixel's stored samples are its first pass plus (centres only) the rest.
-    const scene_t sc = two_plane_scene();
-    const aaf_test::analytic_gbuffer<float> gb(sc);
-    const aaf_test::span_tracer<float> tracer{&sc};
+    const scene_frame f(two_plane_scene());
+    const scene_t& sc = f.sc;
     aaf::sheared_settings<float> s;
     s.frame.sampling.initial_samples = 4;
     s.max_slope_ratio = std::numeric_limits<float>::infinity();
     aaf::sheared_workspace<float> one, two;
     aaf::image<float> img(sc.width, sc.height);
-    const auto base = aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, one, s);
+    const auto base = f.render(img, one, s);
     s.centre_samples = 16;
-    const auto more = aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, two, s);
+    const auto more = f.render(img, two, s);
     std::size_t centres = 0, others = 0;
     for (std::size_t y = 0; y < sc.height; ++y)
         for (std::size_t x = 0; x < sc.width; ++x) {
@@ -326,15 +338,15 @@ TEST_CASE("sheared: centre_samples traces the centres' extra samples and no othe
     CHECK(more.adaptive_rays == base.adaptive_rays + 12u * centres);
     // The workspace is reused: a frame without centre_samples afterwards holds 4 samples everywhere again.
     s.centre_samples = 0;
-    aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, two, s);
+    f.render(img, two, s);
     CHECK(two.samples.size() == 4u * sc.width * sc.height);
     // Low discrepancy: a centre's 16 samples are the 16-point sequence of a frame with 16 everywhere.
     s.frame.sampling.pattern = aaf::sample_pattern::low_discrepancy;
     s.centre_samples = 16;
-    aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, two, s);
+    f.render(img, two, s);
     s.frame.sampling.initial_samples = 16;
     s.centre_samples = 0;
-    aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, one, s);
+    f.render(img, one, s);
     std::size_t equal = 0, ld_centres = 0;
     for (std::size_t y = 0; y < sc.height; ++y)
         for (std::size_t x = 0; x < sc.width; ++x)
@@ -351,10 +363,9 @@ TEST_CASE("sheared: centre_samples reaches the error of as many samples everywhe
     // low-discrepancy pattern the second pass continues each centre's sequence (one net of 16) and the
     // centres' shears are recomputed from all 16 samples, so the frame must match 16 samples everywhere;
     // stratified samples come as a second, independent set (4 + 12 strata: less even than 16).
-    const scene_t sc = two_plane_scene();
+    const scene_frame f(two_plane_scene());
+    const scene_t& sc = f.sc;
     const aaf::image<double> exact = sc.exact_image();
-    const aaf_test::analytic_gbuffer<float> gb(sc);
-    const aaf_test::span_tracer<float> tracer{&sc};
     for (const auto pattern : {aaf::sample_pattern::stratified, aaf::sample_pattern::low_discrepancy}) {
         const auto run = [&](std::uint32_t initial, std::uint32_t centre) {
             aaf::sheared_settings<float> s;
@@ -364,7 +375,7 @@ TEST_CASE("sheared: centre_samples reaches the error of as many samples everywhe
             s.max_slope_ratio = std::numeric_limits<float>::infinity();
             aaf::sheared_workspace<float> ws;
             aaf::image<float> img(sc.width, sc.height);
-            const auto r = aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, ws, s);
+            const auto r = f.render(img, ws, s);
             return std::pair{penumbra_rmse(img, exact), r.rays()};
         };
         const auto [e4, rays4] = run(4, 0);
@@ -382,16 +393,15 @@ TEST_CASE("sheared: centre_samples reaches the error of as many samples everywhe
 TEST_CASE("sheared: a reused workspace gives the frames of fresh ones, also when the bins change", "[variants][sheared]") {
     // The row pass clears only the bins it writes and marks them occupied; a workspace resized between
     // frames (other bins, other samples) must not leak a former frame's bins into the column pass.
-    const scene_t sc = two_plane_scene();
-    const aaf_test::analytic_gbuffer<float> gb(sc);
-    const aaf_test::span_tracer<float> tracer{&sc};
+    const scene_frame f(two_plane_scene());
+    const scene_t& sc = f.sc;
     const auto frame = [&](aaf::sheared_workspace<float>& ws, std::uint32_t bins, std::uint32_t spp) {
         aaf::sheared_settings<float> s;
         s.frame.sampling.initial_samples = spp;
         s.bins = bins;
         s.max_slope_ratio = std::numeric_limits<float>::infinity();
         aaf::image<float> img(sc.width, sc.height);
-        aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, ws, s);
+        f.render(img, ws, s);
         return img;
     };
     aaf::sheared_workspace<float> reused;
@@ -407,18 +417,17 @@ TEST_CASE("sheared: a reused workspace gives the frames of fresh ones, also when
 TEST_CASE("sheared: fallback_mu raises aaf's mu on the fallback pixels only", "[variants][sheared]") {
     // With max_slope_ratio 1 every pixel with two depths falls back to aaf; a larger μ there must give those
     // pixels more samples and narrower filters and leave the sheared centres' samples and shears alone.
-    const scene_t sc = two_plane_scene();
-    const aaf_test::analytic_gbuffer<float> gb(sc);
-    const aaf_test::span_tracer<float> tracer{&sc};
+    const scene_frame f(two_plane_scene());
+    const scene_t& sc = f.sc;
     aaf::sheared_settings<float> s;
     s.frame.sampling.initial_samples = 4;
     s.frame.sampling.max_samples = 400;
     s.max_slope_ratio = 1.0f;
     aaf::sheared_workspace<float> at2, at4;
     aaf::image<float> img(sc.width, sc.height);
-    const auto r2 = aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, at2, s);
+    const auto r2 = f.render(img, at2, s);
     s.fallback_mu = 4.0f;
-    const auto r4 = aaf::render_sheared(gb.view_with_ids(), sc.area_light(), tracer, {img.view()}, at4, s);
+    const auto r4 = f.render(img, at4, s);
     CHECK(r4.initial_rays == r2.initial_rays);
     CHECK(r4.adaptive_rays > r2.adaptive_rays);
     std::size_t fallback = 0, narrower = 0, centres = 0;

@@ -418,19 +418,21 @@ struct sheared_workspace {
 
     /// Allocates what a w×h frame with settings `s` needs (the centres' second pass excepted: its size
     /// depends on the frame), so that a renderer's first frame does not pay for it (as frame_workspace::resize).
+    /// render_sheared calls it for every frame (sizes that already fit are kept).
     void resize(std::size_t w, std::size_t h, const sheared_settings<T>& s) {
         frame.resize(w, h);
         if (shears.width() != w || shears.height() != h) shears.reset(w, h), sheared.reset(w, h);
         if (centre_extra_counts.width() != w || centre_extra_counts.height() != h) centre_extra_counts.reset(w, h);
-        samples.reset(w, h, s.frame.sampling.initial_samples);
-        const std::size_t nb = bins_for(s);
-        bins_per_axis = nb, bin_words = (nb * nb + 63) / 64;
-        if (bins.size() != w * h * nb * nb) bins.resize(w * h * nb * nb);
-        if (occupied.size() != w * h * bin_words) occupied.resize(w * h * bin_words);
+        samples.reset(w, h, s.frame.sampling.initial_samples);  // the last frame's centres may have appended theirs
+        resize_bins(w, h, s);
     }
-    /// Bins per axis of the row pass: bins · (1 + 2·bin_margin), rounded up.
-    [[nodiscard]] static std::size_t bins_for(const sheared_settings<T>& s) noexcept {
-        return static_cast<std::size_t>(std::ceil(static_cast<T>(s.bins) * (T(1) + T(2) * s.bin_margin)));
+    /// Sizes the row pass's bins and their occupancy bits for w×h pixels (sheared_filter calls it): bins ·
+    /// (1 + 2·bin_margin) bins per axis, rounded up; not cleared (the row pass clears each pixel's own).
+    void resize_bins(std::size_t w, std::size_t h, const sheared_settings<T>& s) {
+        bins_per_axis = static_cast<std::size_t>(std::ceil(static_cast<T>(s.bins) * (T(1) + T(2) * s.bin_margin)));
+        bin_words = (bins_per_axis * bins_per_axis + 63) / 64;
+        if (bins.size() != w * h * bins_per_axis * bins_per_axis) bins.resize(w * h * bins_per_axis * bins_per_axis);
+        if (occupied.size() != w * h * bin_words) occupied.resize(w * h * bin_words);
     }
 };
 
@@ -469,13 +471,9 @@ void sheared_filter(const_image_view<glm::vec<3, T>> positions, const_image_view
     const T tol = s.shear_tolerance, trunc = s.frame.filter.truncation;
     const T cos_thr = std::cos(s.frame.filter.normal_threshold_degrees * T(3.14159265358979323846) / T(180));
     const T B = static_cast<T>(s.bins), margin = s.bin_margin;
-    const std::size_t nb = sheared_workspace<T>::bins_for(s);
-    ws.bins_per_axis = nb;
     // Sized here, cleared per pixel by the row pass (one sweep over the 2.3 KB a pixel instead of two).
-    if (ws.bins.size() != w * h * nb * nb) ws.bins.resize(w * h * nb * nb);
-    const std::size_t words = (nb * nb + 63) / 64;
-    ws.bin_words = words;
-    if (ws.occupied.size() != w * h * words) ws.occupied.resize(w * h * words);
+    ws.resize_bins(w, h, s);
+    const std::size_t nb = ws.bins_per_axis, words = ws.bin_words;
     const auto plane = [&](std::size_t x, std::size_t y) { return lp.coords(positions(x, y)); };
     const auto finite3 = [](const glm::vec<3, T>& p) { return std::isfinite(p.x + p.y + p.z); };
 
@@ -693,17 +691,14 @@ frame_report render_sheared(const gbuffer<T, Ids>& gb, const area_light<T>& ligh
 
     frame_report report;
     const auto t_frame = clock::now();
+    ws.resize(w, h, settings);
     frame_workspace<T>& fw = ws.frame;
-    fw.resize(w, h);
     fw.stats.fill(occlusion_stats<T>{});
     fw.adaptive_samples.fill(0);
-    if (ws.shears.width() != w || ws.shears.height() != h) ws.shears.reset(w, h), ws.sheared.reset(w, h);
     const sampling_settings& ss = settings.frame.sampling;
     const formula_settings<T>& fs = settings.frame.formulas;
     formula_settings<T> fallback = fs;  // aaf's formulas on the pixels that are not sheared centres
     if (settings.fallback_mu > T(0)) fallback.mu = settings.fallback_mu;
-    ws.samples.reset(w, h, ss.initial_samples);  // the last frame's centres may have appended theirs
-    if (ws.centre_extra_counts.width() != w || ws.centre_extra_counts.height() != h) ws.centre_extra_counts.reset(w, h);
     const std::uint32_t centre_extra = settings.samples_per_centre() - ss.initial_samples;
     const T sigma = light.sigma();
 
