@@ -572,38 +572,41 @@ template <class T, class V>
 }
 
 #if AAF_SIMD_BYTES > 0
-/// Light-plane (or, `Tangent`, tangent-plane) taps of `Groups` vectors of lanes starting at lane `x0` of
-/// the row whose centres are element `centre_at` of `rows`, over all their distances, each lane's state in
-/// registers (as image_lane_groups): the distance projected on the plane, the weight light_plane_weight
-/// and the masks in vectors. Each lane performs the arithmetic of light_plane_taps (the scalar rule, and
-/// the per-pixel definition with the same exp) in the same order — the same glm expression for the
-/// distance, the −k side then the +k side, a rejected tap a select — so the results are the same bits.
-template <std::size_t Groups, bool Tangent, class T, class Rows>
-void light_plane_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& rows,
-                             const std::size_t* AAF_DETAIL_RESTRICT left, const std::size_t* AAF_DETAIL_RESTRICT right,
-                             const T* AAF_DETAIL_RESTRICT radius, const T* AAF_DETAIL_RESTRICT inv_two_beta2,
-                             const glm::vec<3, T>& ln, T cos_threshold, T* AAF_DETAIL_RESTRICT sum,
-                             T* AAF_DETAIL_RESTRICT wsum) noexcept {
+/// Light-plane (or, `Tangent`, tangent-plane) taps of `Groups` vectors of lanes (group g's centres start at
+/// element `centre(g)` of `rows`) over all their distances, each lane's state in registers (as
+/// image_lane_group_taps): `radius[g]` holds the lanes' radii (0: no taps), `scale[g]` their
+/// light_plane_scale(1/(2β²)); `side(k, g)` returns the elements of `rows` where group g's neighbours at −k
+/// and +k start (a std::pair); `finish(g, sum, wsum)` receives the sums. The distance projected on the plane,
+/// the weight light_plane_weight and the masks are vectors. Each lane performs the arithmetic of
+/// light_plane_taps (the scalar rule, and the per-pixel definition with the same exp) in the same order —
+/// the same glm expression for the distance, the −k side then the +k side, a rejected tap a select — so the
+/// results are the same bits.
+template <std::size_t Groups, bool Tangent, class T, class Rows, class Centre, class Side, class Finish>
+void light_plane_lane_group_taps(const Rows& rows, Centre&& centre, const typename simd<T>::vec* radius,
+                                 const typename simd<T>::vec* scale, const glm::vec<3, T>& ln, T cos_threshold,
+                                 Side&& side, Finish&& finish) noexcept {
     using S = simd<T>;
     using vec = typename S::vec;
     using mask = typename S::mask;
     constexpr std::size_t N = S::lanes;
     constexpr bool normals = Rows::normals, ids = Rows::ids;
     const T* AAF_DETAIL_RESTRICT v = rows.v;
-    vec s[Groups], ws[Groups], r[Groups], a[Groups], cpx[Groups], cpy[Groups], cpz[Groups];  // a: light_plane_scale
+    vec s[Groups], ws[Groups], r[Groups], a[Groups], cpx[Groups], cpy[Groups], cpz[Groups];
     [[maybe_unused]] vec cnx[Groups], cny[Groups], cnz[Groups];
     [[maybe_unused]] typename S::id cid[Groups];
+    std::int32_t steps = 0;  // the largest radius (whole numbers in [0, 1024]; an integer max vectorises)
     for (std::size_t g = 0; g < Groups; ++g) {
-        const std::size_t x = x0 + g * N, c = centre_at + x;
-        r[g] = S::load(radius + x);
-        a[g] = light_plane_scale<T>(S::load(inv_two_beta2 + x));
+        const std::size_t c = centre(g);
+        r[g] = radius[g];
+        a[g] = scale[g];
         s[g] = S::load(v + c);
         ws[g] = S::splat(T(1));
         cpx[g] = S::load(&rows.px[c]), cpy[g] = S::load(&rows.py[c]), cpz[g] = S::load(&rows.pz[c]);
         if constexpr (normals) cnx[g] = S::load(&rows.nx[c]), cny[g] = S::load(&rows.ny[c]), cnz[g] = S::load(&rows.nz[c]);
         if constexpr (ids) cid[g] = S::template load<typename S::id>(&rows.id[c]);
+        const auto whole = __builtin_convertvector(r[g], mask);
+        for (std::size_t l = 0; l < N; ++l) steps = std::max(steps, static_cast<std::int32_t>(whole[l]));
     }
-    const std::size_t steps = largest_radius(radius + x0, Groups * N);
     const vec threshold = S::splat(cos_threshold);
     const vec lnx = S::splat(ln.x), lny = S::splat(ln.y), lnz = S::splat(ln.z);
     const auto tap = [&](std::size_t g, std::size_t i, vec distance) {
@@ -625,15 +628,39 @@ void light_plane_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& 
         s[g] = S::select(ok, s[g] + weight * value, s[g]);
         ws[g] = S::select(ok, ws[g] + weight, ws[g]);
     };
-    for (std::size_t k = 1; k <= steps; ++k) {
+    for (std::size_t k = 1; k <= static_cast<std::size_t>(steps); ++k) {
         const vec distance = S::splat(static_cast<T>(k));
-        const std::size_t l = left[k] + x0, rr = right[k] + x0;
         for (std::size_t g = 0; g < Groups; ++g) {
-            tap(g, l + g * N, distance);
-            tap(g, rr + g * N, distance);
+            const auto [l, rr] = side(k, g);
+            tap(g, l, distance);
+            tap(g, rr, distance);
         }
     }
-    for (std::size_t g = 0; g < Groups; ++g) S::store(sum + x0 + g * N, s[g]), S::store(wsum + x0 + g * N, ws[g]);
+    for (std::size_t g = 0; g < Groups; ++g) finish(g, s[g], ws[g]);
+}
+
+/// light_plane_lane_group_taps for lanes [x0, x0 + Groups·lanes) of a row whose centres are element
+/// `centre_at` of `rows`, with their radii and 1/(2β²) in arrays indexed by lane and lane 0's neighbours at
+/// −k and +k at elements `left[k]`, `right[k]` of `rows`; writes the sums to `sum`, `wsum` (indexed by lane).
+template <std::size_t Groups, bool Tangent, class T, class Rows>
+void light_plane_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& rows,
+                             const std::size_t* AAF_DETAIL_RESTRICT left, const std::size_t* AAF_DETAIL_RESTRICT right,
+                             const T* AAF_DETAIL_RESTRICT radius, const T* AAF_DETAIL_RESTRICT inv_two_beta2,
+                             const glm::vec<3, T>& ln, T cos_threshold, T* AAF_DETAIL_RESTRICT sum,
+                             T* AAF_DETAIL_RESTRICT wsum) noexcept {
+    using S = simd<T>;
+    constexpr std::size_t N = S::lanes;
+    typename S::vec r[Groups], a[Groups];
+    for (std::size_t g = 0; g < Groups; ++g)
+        r[g] = S::load(radius + x0 + g * N), a[g] = light_plane_scale<T>(S::load(inv_two_beta2 + x0 + g * N));
+    light_plane_lane_group_taps<Groups, Tangent, T>(
+        rows, [&](std::size_t g) { return centre_at + x0 + g * N; }, r, a, ln, cos_threshold,
+        [&](std::size_t k, std::size_t g) {
+            return std::pair<std::size_t, std::size_t>(left[k] + x0 + g * N, right[k] + x0 + g * N);
+        },
+        [&](std::size_t g, typename S::vec s, typename S::vec ws) {
+            S::store(sum + x0 + g * N, s), S::store(wsum + x0 + g * N, ws);
+        });
 }
 
 /// Light-plane taps of every lane of a row of `w` ≥ simd<T>::lanes centres (see light_plane_lane_groups):
@@ -1293,6 +1320,113 @@ void image_horizontal_rows(const_image_view<T> src, image_view<T> dst, const_ima
 #endif
 
 #if AAF_SIMD_BYTES > 0
+/// The horizontal light-plane pass (filter_pass's definition) over rows [y_begin, y_end) into `dst`, on the
+/// frame's rows, as image_horizontal_rows does in image space: each row is copied there once (values,
+/// normals, IDs, positions; with packed views in one loop with the kernel radii and 1/(2β²)), filtered by
+/// light_plane_lane_group_taps in place, and its values replaced by the results (frame_row_to_results).
+/// Each row's radii go to `frame.radius`, its largest to `row_reach`, each pixel's 1/(2β²) to
+/// `inv_two_beta2` (w·h), for light_plane_vertical_columns. The lanes do setup_lanes's and normalise_lanes's
+/// arithmetic: the same bits as filter_pass.
+template <class T, class G>
+void light_plane_horizontal_rows(const_image_view<T> src, image_view<T> dst, const_image_view<T> beta,
+                                 const_image_view<T> pixel_size, const G& g, const glm::vec<3, T>& ln,
+                                 const filter_settings<T>& s, row_buffers<T>& frame, T* inv_two_beta2,
+                                 std::size_t* row_reach, pass_workspace<T>& ws, std::size_t y_begin, std::size_t y_end) {
+    using S = simd<T>;
+    using vec = typename S::vec;
+    constexpr std::size_t N = S::lanes;
+    constexpr bool normals = G::has_normals, ids = G::has_ids;
+    constexpr T max_finite = std::numeric_limits<T>::max();
+    [[maybe_unused]] constexpr T nan = std::numeric_limits<T>::quiet_NaN();
+    const std::size_t w = src.width();
+    const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
+    tap_rows<T, G, offset_space::light_plane> rows(frame);
+    const frame_layout fl = image_frame_layout(w, s);
+    rows.resize(src.height() + 1, fl.stride, true);  // already that size: no allocation
+    lane_state<T>& st = ws.st;
+    T* AAF_DETAIL_RESTRICT radius = st.radius.data();
+    bool fused = src.packed_rows() && beta.packed_rows() && g.positions.packed_rows() && sizeof(glm::vec<3, T>) == 3 * sizeof(T);
+    if constexpr (normals) fused = fused && g.normals.packed_rows();
+    if constexpr (ids) fused = fused && g.ids.packed_rows();
+    const T truncation = s.truncation, max_radius = static_cast<T>(s.max_radius);
+    for (std::size_t y = y_begin; y < y_end; ++y) {
+        const std::size_t c = y * fl.stride + fl.margin;
+        rows.fill(y, 0, fl.margin);  // the margins, once per call
+        rows.fill(y, fl.margin + w, fl.stride);
+        T* AAF_DETAIL_RESTRICT full = &frame.radius[y * w];
+        T* AAF_DETAIL_RESTRICT ib = inv_two_beta2 + y * w;
+        if (fused && pixel_size.packed_rows()) {
+            const T* AAF_DETAIL_RESTRICT vin = &src(0, y);
+            const T* AAF_DETAIL_RESTRICT bw = &beta(0, y);
+            const T* AAF_DETAIL_RESTRICT dw = &pixel_size(0, y);
+            T* AAF_DETAIL_RESTRICT v = rows.v + c;
+            // tap_rows::load (a non-finite value gets a NaN normal x), row_radii and setup_lanes, per vector.
+            const auto lanes = [&](std::size_t x, vec value) {
+                S::store(v + x, value);
+                const auto finite = S::finite(value);
+                if constexpr (normals) {
+                    vec nx, ny, nz;
+                    S::deinterleave3(&g.normals(x, y).x, nx, ny, nz);
+                    S::store(rows.nx + c + x, S::select(finite, nx, S::splat(nan)));
+                    S::store(rows.ny + c + x, ny), S::store(rows.nz + c + x, nz);
+                }
+                if constexpr (ids) std::memcpy(rows.id + c + x, &g.ids(x, y), N * sizeof(std::uint32_t));
+                vec px, py, pz;
+                S::deinterleave3(&g.positions(x, y).x, px, py, pz);
+                S::store(rows.px + c + x, px), S::store(rows.py + c + x, py), S::store(rows.pz + c + x, pz);
+                const vec b = S::load(bw + x), d = S::load(dw + x), beta_px = b / d, zero = S::splat(T(0));
+                const vec t = truncation * beta_px, capped = S::select(t < max_radius, t, S::splat(max_radius));
+                const typename S::mask has = (b > zero) & (d > zero) & (beta_px > zero);
+                const vec whole = __builtin_convertvector(__builtin_convertvector(S::select(has, capped, zero), typename S::mask), vec);
+                const vec r = S::select(has, S::select(whole < capped, whole + T(1), whole), zero);
+                S::store(full + x, r);
+                S::store(radius + x, S::select(finite & S::finite(px + py + pz), r, zero));
+                S::store(ib + x, T(1) / (T(2) * b * b));
+            };
+            std::size_t x = 0;
+            for (; x + N <= w; x += N) lanes(x, S::load(vin + x));
+            if (x < w) lanes(w - N, S::load(vin + w - N));  // the last vector again, ending at w − 1: same numbers
+        } else {
+            rows.load(y, fl.margin, src, g, y);
+            const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
+            std::copy_n(st.full_radius.data(), w, full);
+            setup_lanes<true>(w, rows.v + c, rows.px + c, rows.py + c, rows.pz + c, full, bw, dw, radius, st.a.data(),
+                              st.wk.data(), st.sum.data(), st.wsum.data(), ib);
+        }
+        row_reach[y] = largest_radius(full, w);
+        T* out = dst.packed_rows() ? &dst(0, y) : st.out.data();  // straight into a packed destination row
+        const T* cv = rows.v + c;
+        const auto vector = [&](std::size_t x0) {
+            const vec r[1] = {S::load(radius + x0)};
+            const vec a[1] = {light_plane_scale<T>(S::load(ib + x0))};
+            light_plane_lane_group_taps<1, false, T>(
+                rows, [&](std::size_t) { return c + x0; }, r, a, ln, cos_threshold,
+                [&](std::size_t k, std::size_t) { return std::pair<std::size_t, std::size_t>(c + x0 - k, c + x0 + k); },
+                [&](std::size_t, vec sum, vec wsum) {  // normalise_lanes
+                    const vec zero = S::splat(T(0));
+                    S::store(out + x0, S::select((r[0] > zero) & (wsum > zero), sum / wsum, S::load(cv + x0)));
+                });
+        };
+        for (std::size_t x0 = 0; x0 < w; x0 += N) vector(std::min(x0, w - N));
+        if (out == st.out.data()) store_row(out, dst, y);
+        // A non-finite centre with a kernel and a position (rare): the scalar rule (filter_pass).
+        if (any_non_finite_centre(w, cv, full))
+            for (std::size_t x = 0; x < w; ++x) {
+                const T centre = cv[x];
+                if (!(full[x] > T(0)) || std::abs(centre) <= max_finite) continue;
+                const glm::vec<3, T> p = g.positions(x, y);
+                if (!std::isfinite(p.x + p.y + p.z)) continue;  // no position: copied
+                const T beta_px = beta(x, y) / pixel_size(x, y);
+                dst(x, y) = non_finite_centre_average<pass_direction::horizontal, offset_space::light_plane>(
+                    src, g, guide_center<T, G>(g, x, y), p, ln, x, y, x, w, static_cast<std::size_t>(full[x]),
+                    T(1) / (T(2) * beta_px * beta_px), ib[x], cos_threshold, centre);
+            }
+        frame_row_to_results(rows, c, const_image_view<T>(dst), g, y, st.out.data());
+    }
+}
+#endif
+
+#if AAF_SIMD_BYTES > 0
 /// Vectors side by side in a column of the vertical image-space pass on the frame's rows, which takes two
 /// rows at a time: 2 × 2 vectors (four independent chains) with 32 vector registers (AVX-512), 2 × 1 with
 /// 16 (AVX2, SSE), where four spill. Measured on 1280×720 (AMD EPYC, Zen 5; vertical pass, CPU time):
@@ -1416,6 +1550,114 @@ void image_vertical_columns(const_image_view<T> src, image_view<T> dst, const_im
 }
 #endif
 
+#if AAF_SIMD_BYTES > 0
+/// The elements of `frame`'s rows (image_frame_layout) that light_plane_vertical_columns's lanes read as the
+/// neighbours at −k and +k of centre row y, for k up to `reach`: `below + y` and `above + (h − 1 − y)` are
+/// arrays indexed by k (light_plane_lane_groups's `right` and `left`), so that no row builds its own. Rows
+/// outside the image are row h (NaN). `offsets` gets 2·(h + reach + 1) elements (a workspace's: it only grows).
+struct column_row_offsets {
+    const std::size_t* below;  // below[y + k] = row y + k's first element (row h past the last row)
+    const std::size_t* above;  // above[(h − 1 − y) + k] = row y − k's first element (row h above row 0)
+};
+[[nodiscard]] inline column_row_offsets make_column_row_offsets(std::vector<std::size_t>& offsets, std::size_t h,
+                                                                std::size_t reach, frame_layout fl) {
+    const std::size_t n = h + reach + 1;
+    if (offsets.size() < 2 * n) offsets.resize(2 * n);
+    const auto start = [&](std::size_t r) { return (r < h ? r : h) * fl.stride + fl.margin; };
+    for (std::size_t j = 0; j < n; ++j) {
+        offsets[j] = start(j);                                   // row j
+        offsets[n + j] = j < h ? start(h - 1 - j) : start(h);  // row h − 1 − j
+    }
+    return {offsets.data(), offsets.data() + n};
+}
+
+/// The vertical light-plane pass (filter_pass's definition) over the columns of tasks [task_begin, task_end)
+/// (image_column_tasks), every row, reading in place the rows the horizontal pass left in `frame` (values =
+/// its results, radii, normals, IDs, positions) and each pixel's 1/(2β²) in `inv_two_beta2` (w·h). As in
+/// image_vertical_columns, each column of lanes walks the whole image top to bottom, so that the rows within
+/// its reach stay in L1 from one centre row to the next, and the rows entering the reach are prefetched
+/// (the walk's row stride defeats the hardware prefetchers: in 64-row blocks of every column this pass
+/// spent a third of its time waiting on those loads, docs/BENCHMARKS.md). One vector per column: two
+/// groups of light-plane lanes spill on AVX-512. The lanes do light_plane_lane_group_taps's arithmetic,
+/// setup_lanes's radius rule and normalise_lanes's selection: the same bits as filter_pass.
+template <class T, class G>
+void light_plane_vertical_columns(const_image_view<T> src, image_view<T> dst, const_image_view<T> beta,
+                                  const_image_view<T> pixel_size, const G& g, const glm::vec<3, T>& ln, const filter_settings<T>& s, row_buffers<T>& frame,
+                                  const T* inv_two_beta2, column_row_offsets offsets, std::size_t task_begin,
+                                  std::size_t task_end) {
+    using S = simd<T>;
+    using vec = typename S::vec;
+    constexpr std::size_t N = S::lanes, width = image_column_width<T>();
+    const std::size_t w = src.width(), h = src.height(), tasks = image_column_tasks<T>(w);
+    const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
+    tap_rows<T, G, offset_space::light_plane> rows(frame);
+    const frame_layout fl = image_frame_layout(w, s);
+    rows.resize(h + 1, fl.stride, true);  // already that size: no allocation, the same arrays in every task
+    const auto row_start = [&](std::size_t r) { return r * fl.stride + fl.margin; };
+    const T* full_radius = frame.radius.data();
+    const bool packed = dst.packed_rows();
+    const std::size_t ahead = std::min<std::size_t>(s.max_radius, 64) + 2;  // as image_vertical_columns
+    constexpr std::size_t centre_ahead = 8;
+    const auto step = [&](std::size_t x0, std::size_t y) {
+        if (y + ahead < h) {
+            const std::size_t p = row_start(y + ahead) + x0;
+            for (std::size_t b = 0; b < N * sizeof(T); b += 64) {
+                __builtin_prefetch(reinterpret_cast<const char*>(rows.v + p) + b);
+                if constexpr (G::has_normals) {
+                    __builtin_prefetch(reinterpret_cast<const char*>(rows.nx + p) + b);
+                    __builtin_prefetch(reinterpret_cast<const char*>(rows.ny + p) + b);
+                    __builtin_prefetch(reinterpret_cast<const char*>(rows.nz + p) + b);
+                }
+                if constexpr (G::has_ids) __builtin_prefetch(reinterpret_cast<const char*>(rows.id + p) + b);
+                __builtin_prefetch(reinterpret_cast<const char*>(rows.px + p) + b);
+                __builtin_prefetch(reinterpret_cast<const char*>(rows.py + p) + b);
+                __builtin_prefetch(reinterpret_cast<const char*>(rows.pz + p) + b);
+            }
+        }
+        if (y + centre_ahead < h) {
+            const std::size_t at = (y + centre_ahead) * w + x0;
+            for (std::size_t b = 0; b < N * sizeof(T); b += 64) {
+                __builtin_prefetch(reinterpret_cast<const char*>(inv_two_beta2 + at) + b);
+                __builtin_prefetch(reinterpret_cast<const char*>(full_radius + at) + b);
+            }
+        }
+        const std::size_t c = row_start(y) + x0, at = y * w + x0;
+        const vec cv = S::load(rows.v + c), zero = S::splat(T(0)), full = S::load(full_radius + at);
+        // setup_lanes: taps for a finite centre with a finite position (the sum, as the scalar rule tests it).
+        const auto taps = S::finite(cv) & S::finite(S::load(rows.px + c) + S::load(rows.py + c) + S::load(rows.pz + c));
+        const vec r[1] = {S::select(taps, full, zero)};
+        const vec a[1] = {light_plane_scale<T>(S::load(inv_two_beta2 + at))};
+        const std::size_t* below = offsets.below + y;
+        const std::size_t* above = offsets.above + (h - 1 - y);
+        light_plane_lane_group_taps<1, false, T>(
+            rows, [&](std::size_t) { return c; }, r, a, ln, cos_threshold,
+            [&](std::size_t k, std::size_t) { return std::pair<std::size_t, std::size_t>(above[k] + x0, below[k] + x0); },
+            [&](std::size_t, vec sum, vec wsum) {
+                const vec out = S::select((r[0] > zero) & (wsum > zero), sum / wsum, cv);  // normalise_lanes
+                if (packed) S::store(&dst(x0, y), out);
+                else for (std::size_t l = 0; l < N; ++l) dst(x0 + l, y) = out[l];
+                // A non-finite centre with a kernel and a position (rare): the scalar rule (filter_pass).
+                if (!S::any((full > zero) & ~S::finite(cv))) return;
+                for (std::size_t l = 0; l < N; ++l) {
+                    const std::size_t x = x0 + l;
+                    if (!(full[l] > T(0)) || std::isfinite(cv[l])) continue;
+                    const glm::vec<3, T> p = g.positions(x, y);
+                    if (!std::isfinite(p.x + p.y + p.z)) continue;  // no position: copied
+                    const T beta_px = beta(x, y) / pixel_size(x, y);
+                    dst(x, y) = non_finite_centre_average<pass_direction::vertical, offset_space::light_plane>(
+                        src, g, guide_center<T, G>(g, x, y), p, ln, x, y, y, h, static_cast<std::size_t>(full[l]),
+                        T(1) / (T(2) * beta_px * beta_px), inv_two_beta2[y * w + x], cos_threshold, cv[l]);
+                }
+            });
+    };
+    for (std::size_t task = task_begin; task < task_end; ++task) {
+        const std::size_t x_begin = task * width, x_end = task + 1 == tasks ? w : x_begin + width;
+        for (std::size_t x0 = x_begin; x0 < x_end; x0 += N)
+            for (std::size_t y = 0; y < h; ++y) step(std::min(x0, x_end - N), y);
+    }
+}
+#endif
+
 /// Per-axis footprints (filter_visibility_axes), between the passes of rows [y_begin, y_end): the vertical
 /// pass's own kernel radii from β and its footprint `pixel_size` (row_radii, the horizontal pass's rule) —
 /// each row's reach and, in image space, each pixel's m_1 = exp(−a) in `decay` and its radius in
@@ -1460,6 +1702,7 @@ struct filter_workspace {
     std::vector<std::size_t> row_reach;
     typename detail::workspace_pool<T>::spares_type passes;
     detail::row_buffers<T> frame;  // image space: the frame's rows for both passes (filter_pass's `frame`)
+    std::vector<std::size_t> column_rows;  // light plane: the vertical pass's neighbour rows (column_row_offsets)
 };
 
 namespace detail {
@@ -1535,6 +1778,27 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
                 if (workspace.frame.radius.size() < w * h) workspace.frame.radius.resize(w * h);
                 frame = &workspace.frame;
             }
+#if AAF_SIMD_BYTES > 0
+            if (frame) {  // rows, then columns of lanes walking the whole image (light_plane_vertical_columns)
+                if (workspace.decay.size() < w * h) workspace.decay.resize(w * h);
+                T* inv_two_beta2 = workspace.decay.data();  // each pixel's 1/(2β²), from the horizontal pass
+                const std::size_t row_tasks = (h + image_rows_per_task - 1) / image_rows_per_task;
+                exec.parallel_for(row_tasks, [&](std::size_t b, std::size_t e) {
+                    pool.lend([&](auto& ws) {
+                        light_plane_horizontal_rows<T>(visibility, scratch, filter_width, pixel_size, g, n, s, *frame,
+                                                       inv_two_beta2, row_reach, ws, b * image_rows_per_task,
+                                                       std::min(h, e * image_rows_per_task));
+                    });
+                });
+                vertical_radii(nullptr, frame->radius.data());
+                const std::size_t reach = *std::max_element(row_reach, row_reach + h);
+                const column_row_offsets offsets = make_column_row_offsets(workspace.column_rows, h, reach, image_frame_layout(w, s));
+                exec.parallel_for(image_column_tasks<T>(w), [&](std::size_t b, std::size_t e) {
+                    light_plane_vertical_columns<T>(scratch, output, filter_width, pixel_size_v, g, n, s, *frame, inv_two_beta2, offsets, b, e);
+                });
+                return;
+            }
+#endif
             exec.parallel_for(tasks, [&](std::size_t b, std::size_t e) {
                 pool.lend([&](auto& ws) { filter_pass<pass_direction::horizontal, offset_space::light_plane, T>(visibility, scratch, filter_width, pixel_size, g, n, s, row(b), row(e), row_reach, static_cast<T*>(nullptr), ws, frame); });
             });
