@@ -17,6 +17,7 @@
 #include <vector>
 
 #include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 #include "config.hpp"
@@ -77,26 +78,88 @@ template <class V>
     return zero > d2 ? zero : d2;  // the operand order of x86's max: one instruction
 }
 
-/// Squared distance between the centre `p` and a neighbour at `q`, projected on the light plane (§1.11).
+/// Squared distance between the centre `p` and a neighbour at `q`, projected on the plane of the unit
+/// normal `n` (FORMULAS §1.11 [AUTH]): the tangent-plane filter's distance (n = the centre's normal).
 template <class T>
-[[nodiscard]] T light_plane_distance2(const glm::vec<3, T>& q, const glm::vec<3, T>& p,
-                                      const glm::vec<3, T>& light_normal) noexcept {
+[[nodiscard]] T light_plane_distance2(const glm::vec<3, T>& q, const glm::vec<3, T>& p, const glm::vec<3, T>& n) noexcept {
     const glm::vec<3, T> dp = q - p;
-    return plane_distance2<T>(dp.x, dp.y, dp.z, light_normal.x, light_normal.y, light_normal.z);
+    return plane_distance2<T>(dp.x, dp.y, dp.z, n.x, n.y, n.z);
 }
 
 /// The same for neighbour (nx, ny) of the guides' positions.
 template <class T, class G>
 [[nodiscard]] T light_plane_distance2(const G& g, std::size_t nx, std::size_t ny, const glm::vec<3, T>& p,
-                                      const glm::vec<3, T>& light_normal) noexcept {
-    return light_plane_distance2<T>(g.positions(nx, ny), p, light_normal);
+                                      const glm::vec<3, T>& n) noexcept {
+    return light_plane_distance2<T>(g.positions(nx, ny), p, n);
+}
+
+/// Two unit vectors that complete the unit light normal `n` to an orthonormal basis: the axes of the
+/// light-plane coordinates. The branchless construction of Duff et al., "Building an Orthonormal Basis,
+/// Revisited" (JCGT 6(1), 2017), listing 3.
+template <class T>
+struct light_plane_basis {
+    glm::vec<3, T> e1, e2;
+    explicit light_plane_basis(const glm::vec<3, T>& n) noexcept {
+        const T sign = std::copysign(T(1), n.z), a = T(-1) / (sign + n.z), b = n.x * n.y * a;
+        e1 = {T(1) + sign * n.x * n.x * a, sign * b, -sign * n.x};
+        e2 = {b, sign + n.y * n.y * a, -n.y};
+    }
+};
+
+/// A position's coordinate along a basis axis (x·ex + y·ey + z·ez), for a scalar T or a vector of lanes:
+/// one source expression, so that fma contraction treats the row copies' lanes and the scalar rule alike.
+template <class V, class T>
+[[nodiscard]] V plane_coordinate(V x, V y, V z, const glm::vec<3, T>& axis) noexcept {
+    return x * axis.x + y * axis.y + z * axis.z;
+}
+
+/// The light-plane filter's squared distance from the differences of two pixels' plane coordinates
+/// (light_plane_coordinates), for a scalar T or a vector of lanes.
+template <class V>
+[[nodiscard]] V plane_coordinates_distance2(V du, V dv) noexcept {
+    return du * du + dv * dv;
+}
+
+/// A position's light-plane coordinates (u, v) = (p·e1, p·e2) (FORMULAS §1.11 [BS]: positions mapped
+/// through the basis (e1, e2, n) and the first two coordinates kept). The light-plane filter's distance is
+/// (u_q − u_p)² + (v_q − v_p)² from these, computed once per pixel: mathematically the projected distance
+/// |q − p|² − ((q − p)·n)² of [AUTH], in floating point rounded at the scale of |p| (the distance from the
+/// world's origin) instead of |q − p|; docs/DEVIATIONS.md F5 gives why and the measured difference. A
+/// position is usable when u + v is finite (a non-finite component makes both non-finite).
+template <class T>
+[[nodiscard]] glm::vec<2, T> light_plane_coordinates(const glm::vec<3, T>& p, const light_plane_basis<T>& basis) noexcept {
+    return {plane_coordinate<T>(p.x, p.y, p.z, basis.e1), plane_coordinate<T>(p.x, p.y, p.z, basis.e2)};
+}
+
+/// The light-plane filter's squared distance between the centre at plane coordinates `p` and neighbour
+/// (nx, ny) of the guides' positions.
+template <class T, class G>
+[[nodiscard]] T light_plane_coordinates_distance2(const G& g, std::size_t nx, std::size_t ny, const glm::vec<2, T>& p,
+                                                  const light_plane_basis<T>& basis) noexcept {
+    const glm::vec<2, T> q = light_plane_coordinates<T>(g.positions(nx, ny), basis);
+    return plane_coordinates_distance2<T>(q.x - p.x, q.y - p.y);
+}
+
+/// Whether a centre at `p` has a position the pass can use: its light-plane coordinates' sum is finite (the
+/// lanes test u + v + 0, tap_rows::plane_coordinates), in the tangent plane its components' sum.
+template <offset_space Space, class T>
+[[nodiscard]] bool has_position(const glm::vec<3, T>& p, const light_plane_basis<T>& basis) noexcept {
+    if constexpr (Space == offset_space::light_plane) {
+        const glm::vec<2, T> uv = light_plane_coordinates<T>(p, basis);
+        return std::isfinite(uv.x + uv.y + T(0));
+    } else {
+        return std::isfinite(p.x + p.y + p.z);
+    }
 }
 
 /// The result of a pass for a non-finite centre: the Gaussian average of its accepted finite neighbours.
 /// Such a centre has no weight of its own, so the result is a ratio of neighbour weights only, and for a
 /// narrow kernel every exp(−e) can underflow to 0 in T (e.g. β/d < 0.07 px in float: exp(−1/(2·0.07²)) = 0)
 /// although valid neighbours exist. The weights are normalised, so evaluate them relative to the largest,
-/// exp(−(e − e_min)); `centre` is returned only when no neighbour is accepted.
+/// exp(−(e − e_min)); `centre` is returned only when no neighbour is accepted. On the light plane the
+/// distance is the paper's |q − p|² − ((q − p)·n)², not the passes' plane coordinates (F5): relative to
+/// the largest weight, the exponents' rounding at the scale of |p| would be amplified by their size (a
+/// difference of 1.5e−4 from the double reference in tests/test_filter.cpp), and this rule is rare and scalar.
 template <pass_direction Dir, offset_space Space, class T, class G>
 [[nodiscard]] T non_finite_centre_average(const_image_view<T> src, const G& g, const guide_center<T, G>& gc,
                                           const glm::vec<3, T>& p, const glm::vec<3, T>& light_normal, std::size_t x,
@@ -241,6 +304,29 @@ struct row_buffers {
     std::vector<T> radius;  // filter_pass's `frame` only: each pixel's kernel radius, from the horizontal pass
 };
 
+/// Replaces `n` positions (x, y, z arrays) by their light-plane coordinates (u, v, 0), in vectors where it
+/// can: light_plane_coordinates's bits (one expression, plane_coordinate).
+template <class T>
+void to_plane_coordinates(T* AAF_DETAIL_RESTRICT x, T* AAF_DETAIL_RESTRICT y, T* AAF_DETAIL_RESTRICT z, std::size_t n,
+                          const light_plane_basis<T>& basis) noexcept {
+    std::size_t i = 0;
+#if AAF_SIMD_BYTES > 0
+    using S = simd<T>;
+    for (; i + S::lanes <= n; i += S::lanes) {
+        const typename S::vec px = S::load(x + i), py = S::load(y + i), pz = S::load(z + i);
+        S::store(x + i, plane_coordinate(px, py, pz, basis.e1));
+        S::store(y + i, plane_coordinate(px, py, pz, basis.e2));
+        S::store(z + i, S::splat(T(0)));
+    }
+#endif
+    for (; i < n; ++i) {
+        const T px = x[i], py = y[i], pz = z[i];
+        x[i] = plane_coordinate(px, py, pz, basis.e1);
+        y[i] = plane_coordinate(px, py, pz, basis.e2);
+        z[i] = T(0);
+    }
+}
+
 /// Structure-of-arrays copies of rows of the pass's input and of the guides it uses, `stride` elements per
 /// row, so that the lanes read contiguous, aligned-type arrays whatever the caller's pixel strides.
 /// Elements that stand for pixels outside the image hold a NaN value (and NaN normals), which every tap
@@ -251,8 +337,12 @@ struct tap_rows {
     static constexpr bool normals = G::has_normals;
     static constexpr bool ids = G::has_ids;
     static constexpr bool positions = Space != offset_space::image;
+    /// Light plane: px, py hold each position's light-plane coordinates u, v (light_plane_coordinates) and
+    /// pz holds 0, so that a centre's u + v + 0 is finite exactly when it has a usable position.
+    static constexpr bool plane_coordinates = Space == offset_space::light_plane;
     std::size_t stride = 0;
     row_buffers<T>& buffers;
+    light_plane_basis<T> basis{glm::vec<3, T>(0, 0, 1)};  // light plane: set by the pass (its unit light normal)
     // Not cleared: every element is written by `load` or `fill` before the lanes read it.
     T *v = nullptr, *nx = nullptr, *ny = nullptr, *nz = nullptr, *px = nullptr, *py = nullptr, *pz = nullptr;
     std::uint32_t* id = nullptr;
@@ -315,6 +405,7 @@ struct tap_rows {
         }
         if constexpr (ids) copy_row(g.ids, y, &id[o]);
         if constexpr (positions) copy_row(g.positions, y, &px[o], &py[o], &pz[o]);
+        if constexpr (plane_coordinates) to_plane_coordinates(&px[o], &py[o], &pz[o], w, basis);
     }
 
     using cursor = tap_cursor<T>;
@@ -583,7 +674,7 @@ template <class T, class V>
 /// results are the same bits.
 template <std::size_t Groups, bool Tangent, class T, class Rows, class Centre, class Side, class Finish>
 void light_plane_lane_group_taps(const Rows& rows, Centre&& centre, const typename simd<T>::vec* radius,
-                                 const typename simd<T>::vec* scale, const glm::vec<3, T>& ln, T cos_threshold,
+                                 const typename simd<T>::vec* scale, T cos_threshold,
                                  Side&& side, Finish&& finish) noexcept {
     using S = simd<T>;
     using vec = typename S::vec;
@@ -591,8 +682,8 @@ void light_plane_lane_group_taps(const Rows& rows, Centre&& centre, const typena
     constexpr std::size_t N = S::lanes;
     constexpr bool normals = Rows::normals, ids = Rows::ids;
     const T* AAF_DETAIL_RESTRICT v = rows.v;
-    vec s[Groups], ws[Groups], r[Groups], a[Groups], cpx[Groups], cpy[Groups], cpz[Groups];
-    [[maybe_unused]] vec cnx[Groups], cny[Groups], cnz[Groups];
+    vec s[Groups], ws[Groups], r[Groups], a[Groups], cpx[Groups], cpy[Groups];
+    [[maybe_unused]] vec cpz[Groups], cnx[Groups], cny[Groups], cnz[Groups];
     [[maybe_unused]] typename S::id cid[Groups];
     std::int32_t steps = 0;  // the largest radius (whole numbers in [0, 1024]; an integer max vectorises)
     for (std::size_t g = 0; g < Groups; ++g) {
@@ -601,14 +692,14 @@ void light_plane_lane_group_taps(const Rows& rows, Centre&& centre, const typena
         a[g] = scale[g];
         s[g] = S::load(v + c);
         ws[g] = S::splat(T(1));
-        cpx[g] = S::load(&rows.px[c]), cpy[g] = S::load(&rows.py[c]), cpz[g] = S::load(&rows.pz[c]);
+        cpx[g] = S::load(&rows.px[c]), cpy[g] = S::load(&rows.py[c]);
+        if constexpr (Tangent) cpz[g] = S::load(&rows.pz[c]);
         if constexpr (normals) cnx[g] = S::load(&rows.nx[c]), cny[g] = S::load(&rows.ny[c]), cnz[g] = S::load(&rows.nz[c]);
         if constexpr (ids) cid[g] = S::template load<typename S::id>(&rows.id[c]);
         const auto whole = __builtin_convertvector(r[g], mask);
         for (std::size_t l = 0; l < N; ++l) steps = std::max(steps, static_cast<std::int32_t>(whole[l]));
     }
     const vec threshold = S::splat(cos_threshold);
-    const vec lnx = S::splat(ln.x), lny = S::splat(ln.y), lnz = S::splat(ln.z);
     const auto tap = [&](std::size_t g, std::size_t i, vec distance) {
         const vec value = S::load(v + i);
         mask ok = distance <= r[g];
@@ -617,11 +708,13 @@ void light_plane_lane_group_taps(const Rows& rows, Centre&& centre, const typena
         if constexpr (ids) ok = ok & S::equal(S::template load<typename S::id>(&rows.id[i]), cid[g]);
         if constexpr (normals)
             ok = ok & (cnx[g] * S::load(&rows.nx[i]) + cny[g] * S::load(&rows.ny[i]) + cnz[g] * S::load(&rows.nz[i]) >= threshold);
-        // light_plane_distance2: dp = q − p; |dp|² − (dp·n)², clamped below at 0 (NaN stays NaN).
-        const vec dx = S::load(&rows.px[i]) - cpx[g], dy = S::load(&rows.py[i]) - cpy[g], dz = S::load(&rows.pz[i]) - cpz[g];
         vec d2;
-        if constexpr (Tangent) d2 = plane_distance2<vec>(dx, dy, dz, cnx[g], cny[g], cnz[g]);
-        else d2 = plane_distance2<vec>(dx, dy, dz, lnx, lny, lnz);
+        if constexpr (Tangent) {  // light_plane_distance2: dp = q − p; |dp|² − (dp·n)², clamped below at 0
+            const vec dx = S::load(&rows.px[i]) - cpx[g], dy = S::load(&rows.py[i]) - cpy[g], dz = S::load(&rows.pz[i]) - cpz[g];
+            d2 = plane_distance2<vec>(dx, dy, dz, cnx[g], cny[g], cnz[g]);
+        } else {  // the plane coordinates' differences (tap_rows::plane_coordinates); NaN stays NaN
+            d2 = plane_coordinates_distance2<vec>(S::load(&rows.px[i]) - cpx[g], S::load(&rows.py[i]) - cpy[g]);
+        }
         const vec e2 = d2 * a[g];
         ok = ok & light_plane_accepts<T>(e2);  // false for a NaN position or a negligible weight
         const vec weight = light_plane_weight<T>(e2);
@@ -646,7 +739,7 @@ template <std::size_t Groups, bool Tangent, class T, class Rows>
 void light_plane_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& rows,
                              const std::size_t* AAF_DETAIL_RESTRICT left, const std::size_t* AAF_DETAIL_RESTRICT right,
                              const T* AAF_DETAIL_RESTRICT radius, const T* AAF_DETAIL_RESTRICT inv_two_beta2,
-                             const glm::vec<3, T>& ln, T cos_threshold, T* AAF_DETAIL_RESTRICT sum,
+                             T cos_threshold, T* AAF_DETAIL_RESTRICT sum,
                              T* AAF_DETAIL_RESTRICT wsum) noexcept {
     using S = simd<T>;
     constexpr std::size_t N = S::lanes;
@@ -654,7 +747,7 @@ void light_plane_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& 
     for (std::size_t g = 0; g < Groups; ++g)
         r[g] = S::load(radius + x0 + g * N), a[g] = light_plane_scale<T>(S::load(inv_two_beta2 + x0 + g * N));
     light_plane_lane_group_taps<Groups, Tangent, T>(
-        rows, [&](std::size_t g) { return centre_at + x0 + g * N; }, r, a, ln, cos_threshold,
+        rows, [&](std::size_t g) { return centre_at + x0 + g * N; }, r, a, cos_threshold,
         [&](std::size_t k, std::size_t g) {
             return std::pair<std::size_t, std::size_t>(left[k] + x0 + g * N, right[k] + x0 + g * N);
         },
@@ -667,12 +760,12 @@ void light_plane_lane_groups(std::size_t x0, std::size_t centre_at, const Rows& 
 /// single vectors, the last one ending at lane w − 1 (it may redo lanes of the previous one: same bits).
 template <bool Tangent, class T, class Rows>
 void light_plane_row_vector(std::size_t w, std::size_t centre_at, const Rows& rows, const std::size_t* left,
-                            const std::size_t* right, const T* radius, const T* inv_two_beta2, const glm::vec<3, T>& ln,
-                            T cos_threshold, T* sum, T* wsum) noexcept {
+                            const std::size_t* right, const T* radius, const T* inv_two_beta2, T cos_threshold, T* sum,
+                            T* wsum) noexcept {
     constexpr std::size_t N = simd<T>::lanes;
     for (std::size_t x0 = 0; x0 < w; x0 += N)
         light_plane_lane_groups<1, Tangent, T>(std::min(x0, w - N), centre_at, rows, left, right, radius, inv_two_beta2,
-                                               ln, cos_threshold, sum, wsum);
+                                               cos_threshold, sum, wsum);
 }
 #endif
 
@@ -681,7 +774,7 @@ void light_plane_row_vector(std::size_t w, std::size_t centre_at, const Rows& ro
 /// builds without vectors; light_plane_lane_groups computes the same bits.) `Tangent`: distances are projected on each
 /// centre's own normal (offset_space::tangent_plane) instead of `ln`.
 template <class T, bool Normals, bool Ids, bool Tangent = false>
-void light_plane_taps(std::size_t n, T k, T cos_threshold, const glm::vec<3, T>& ln, const T* AAF_DETAIL_RESTRICT radius,
+void light_plane_taps(std::size_t n, T k, T cos_threshold, const T* AAF_DETAIL_RESTRICT radius,
                       const T* AAF_DETAIL_RESTRICT inv_two_beta2, T* AAF_DETAIL_RESTRICT sum, T* AAF_DETAIL_RESTRICT wsum,
                       const T* AAF_DETAIL_RESTRICT cnx, const T* AAF_DETAIL_RESTRICT cny, const T* AAF_DETAIL_RESTRICT cnz,
                       const std::uint32_t* AAF_DETAIL_RESTRICT cid, const T* AAF_DETAIL_RESTRICT cpx,
@@ -705,13 +798,17 @@ void light_plane_taps(std::size_t n, T k, T cos_threshold, const glm::vec<3, T>&
         lok[i] = l;
         rok[i] = r;
     }
-    // The distance through light_plane_distance2 as the per-pixel definition (plane_distance2: the same
-    // expression as the vector lanes, so that fma contraction treats all alike: bitwise equal results).
+    // The distance as the per-pixel definition computes it (plane_distance2, plane_coordinates_distance2:
+    // the same expressions as the vector lanes, so that fma contraction treats all alike: the same bits).
     const auto add = [&](std::size_t i, const auto& c) {
-        const glm::vec<3, T> p{cpx[i], cpy[i], cpz[i]}, q{c.px[i], c.py[i], c.pz[i]};
-        glm::vec<3, T> axis = ln;
-        if constexpr (Tangent) axis = {cnx[i], cny[i], cnz[i]};
-        const T weight = light_plane_weight<T>(light_plane_distance2<T>(q, p, axis) * light_plane_scale<T>(inv_two_beta2[i]));
+        T d2;
+        if constexpr (Tangent) {
+            const glm::vec<3, T> p{cpx[i], cpy[i], cpz[i]}, q{c.px[i], c.py[i], c.pz[i]};
+            d2 = light_plane_distance2<T>(q, p, glm::vec<3, T>{cnx[i], cny[i], cnz[i]});
+        } else {  // the rows hold the plane coordinates (tap_rows::plane_coordinates)
+            d2 = plane_coordinates_distance2<T>(c.px[i] - cpx[i], c.py[i] - cpy[i]);
+        }
+        const T weight = light_plane_weight<T>(d2 * light_plane_scale<T>(inv_two_beta2[i]));
         if (!std::isfinite(weight)) return;  // NaN position, or a negligible weight
         sum[i] += weight * c.v[i];
         wsum[i] += weight;
@@ -935,6 +1032,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
 
     lane_state<T>& st = ws.st;
     tap_rows<T, G, Space> rows(frame ? *frame : ws.rows);
+    if constexpr (Space == offset_space::light_plane) rows.basis = light_plane_basis<T>(light_normal);
     std::vector<unsigned char>&lok = ws.lok, &rok = ws.rok;  // light plane: the lanes' accepted taps
     const std::size_t margin = image_row_margin(s);  // horizontal: NaN elements left and right of the row
     std::size_t first_row = 0;                      // vertical: image row held in buffer row 0
@@ -962,7 +1060,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
             T inv_two_beta2 = T(0);
             if constexpr (light_plane) {
                 p = g.positions(x, y);
-                if (!std::isfinite(p.x + p.y + p.z)) continue;  // no position: copied
+                if (!has_position<Space>(p, rows.basis)) continue;  // no position: copied
                 inv_two_beta2 = st.inv_two_beta2[x];
             }
             const std::size_t pos = horizontal ? x : y, extent = horizontal ? w : h;
@@ -1077,7 +1175,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                         const std::size_t i = y - block;
                         light_plane_lane_groups<1, Space == offset_space::tangent_plane, T>(
                             std::min(x0, w - N), row_start(y - first_row), rows, &B.left[i * R], &B.right[i * R],
-                            &B.radius[i * w], &inv_two_beta2[i * w], light_normal, cos_threshold, &B.sum[i * w],
+                            &B.radius[i * w], &inv_two_beta2[i * w], cos_threshold, &B.sum[i * w],
                             &B.wsum[i * w]);
                     }
                 for (std::size_t y = block; y < block_end; ++y) {
@@ -1160,7 +1258,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                     }
                     light_plane_row_vector<Space == offset_space::tangent_plane, T>(
                         w, centre_at, rows, ws.left.data(), ws.right.data(), st.radius.data(), st.inv_two_beta2.data(),
-                        light_normal, cos_threshold, st.sum.data(), st.wsum.data());
+                        cos_threshold, st.sum.data(), st.wsum.data());
                     vector_done = true;
                 }
             }
@@ -1178,7 +1276,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
                 if constexpr (light_plane) {
                     for (std::size_t k = 1; k <= steps; ++k) {
                         light_plane_taps<T, G::has_normals, G::has_ids, Space == offset_space::tangent_plane>(
-                            n, static_cast<T>(k), cos_threshold, light_normal, &st.radius[x0], &st.inv_two_beta2[x0],
+                            n, static_cast<T>(k), cos_threshold, &st.radius[x0], &st.inv_two_beta2[x0],
                             &st.sum[x0], &st.wsum[x0], Cb.nx, Cb.ny, Cb.nz, Cb.id, Cb.px, Cb.py, Cb.pz, side(k, false),
                             side(k, true), lok.data(), rok.data());
                     }
@@ -1341,6 +1439,7 @@ void light_plane_horizontal_rows(const_image_view<T> src, image_view<T> dst, con
     const std::size_t w = src.width();
     const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
     tap_rows<T, G, offset_space::light_plane> rows(frame);
+    rows.basis = light_plane_basis<T>(ln);
     const frame_layout fl = image_frame_layout(w, s);
     rows.resize(src.height() + 1, fl.stride, true);  // already that size: no allocation
     lane_state<T>& st = ws.st;
@@ -1371,16 +1470,17 @@ void light_plane_horizontal_rows(const_image_view<T> src, image_view<T> dst, con
                     S::store(rows.ny + c + x, ny), S::store(rows.nz + c + x, nz);
                 }
                 if constexpr (ids) std::memcpy(rows.id + c + x, &g.ids(x, y), N * sizeof(std::uint32_t));
-                vec px, py, pz;
+                vec px, py, pz;  // to plane coordinates (u, v, 0) as tap_rows::load (to_plane_coordinates)
                 S::deinterleave3(&g.positions(x, y).x, px, py, pz);
-                S::store(rows.px + c + x, px), S::store(rows.py + c + x, py), S::store(rows.pz + c + x, pz);
+                const vec u = plane_coordinate(px, py, pz, rows.basis.e1), pv = plane_coordinate(px, py, pz, rows.basis.e2);
+                S::store(rows.px + c + x, u), S::store(rows.py + c + x, pv), S::store(rows.pz + c + x, S::splat(T(0)));
                 const vec b = S::load(bw + x), d = S::load(dw + x), beta_px = b / d, zero = S::splat(T(0));
                 const vec t = truncation * beta_px, capped = S::select(t < max_radius, t, S::splat(max_radius));
                 const typename S::mask has = (b > zero) & (d > zero) & (beta_px > zero);
                 const vec whole = __builtin_convertvector(__builtin_convertvector(S::select(has, capped, zero), typename S::mask), vec);
                 const vec r = S::select(has, S::select(whole < capped, whole + T(1), whole), zero);
                 S::store(full + x, r);
-                S::store(radius + x, S::select(finite & S::finite(px + py + pz), r, zero));
+                S::store(radius + x, S::select(finite & S::finite(u + pv), r, zero));  // setup_lanes: u + v + 0
                 S::store(ib + x, T(1) / (T(2) * b * b));
             };
             std::size_t x = 0;
@@ -1400,7 +1500,7 @@ void light_plane_horizontal_rows(const_image_view<T> src, image_view<T> dst, con
             const vec r[1] = {S::load(radius + x0)};
             const vec a[1] = {light_plane_scale<T>(S::load(ib + x0))};
             light_plane_lane_group_taps<1, false, T>(
-                rows, [&](std::size_t) { return c + x0; }, r, a, ln, cos_threshold,
+                rows, [&](std::size_t) { return c + x0; }, r, a, cos_threshold,
                 [&](std::size_t k, std::size_t) { return std::pair<std::size_t, std::size_t>(c + x0 - k, c + x0 + k); },
                 [&](std::size_t, vec sum, vec wsum) {  // normalise_lanes
                     const vec zero = S::splat(T(0));
@@ -1415,7 +1515,7 @@ void light_plane_horizontal_rows(const_image_view<T> src, image_view<T> dst, con
                 const T centre = cv[x];
                 if (!(full[x] > T(0)) || std::abs(centre) <= max_finite) continue;
                 const glm::vec<3, T> p = g.positions(x, y);
-                if (!std::isfinite(p.x + p.y + p.z)) continue;  // no position: copied
+                if (!has_position<offset_space::light_plane>(p, rows.basis)) continue;  // no position: copied
                 const T beta_px = beta(x, y) / pixel_size(x, y);
                 dst(x, y) = non_finite_centre_average<pass_direction::horizontal, offset_space::light_plane>(
                     src, g, guide_center<T, G>(g, x, y), p, ln, x, y, x, w, static_cast<std::size_t>(full[x]),
@@ -1591,6 +1691,7 @@ void light_plane_vertical_columns(const_image_view<T> src, image_view<T> dst, co
     const std::size_t w = src.width(), h = src.height(), tasks = image_column_tasks<T>(w);
     const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
     tap_rows<T, G, offset_space::light_plane> rows(frame);
+    rows.basis = light_plane_basis<T>(ln);  // the scalar rule's has_position
     const frame_layout fl = image_frame_layout(w, s);
     rows.resize(h + 1, fl.stride, true);  // already that size: no allocation, the same arrays in every task
     const auto row_start = [&](std::size_t r) { return r * fl.stride + fl.margin; };
@@ -1611,7 +1712,6 @@ void light_plane_vertical_columns(const_image_view<T> src, image_view<T> dst, co
                 if constexpr (G::has_ids) __builtin_prefetch(reinterpret_cast<const char*>(rows.id + p) + b);
                 __builtin_prefetch(reinterpret_cast<const char*>(rows.px + p) + b);
                 __builtin_prefetch(reinterpret_cast<const char*>(rows.py + p) + b);
-                __builtin_prefetch(reinterpret_cast<const char*>(rows.pz + p) + b);
             }
         }
         if (y + centre_ahead < h) {
@@ -1624,13 +1724,13 @@ void light_plane_vertical_columns(const_image_view<T> src, image_view<T> dst, co
         const std::size_t c = row_start(y) + x0, at = y * w + x0;
         const vec cv = S::load(rows.v + c), zero = S::splat(T(0)), full = S::load(full_radius + at);
         // setup_lanes: taps for a finite centre with a finite position (the sum, as the scalar rule tests it).
-        const auto taps = S::finite(cv) & S::finite(S::load(rows.px + c) + S::load(rows.py + c) + S::load(rows.pz + c));
+        const auto taps = S::finite(cv) & S::finite(S::load(rows.px + c) + S::load(rows.py + c));  // u + v (+ 0)
         const vec r[1] = {S::select(taps, full, zero)};
         const vec a[1] = {light_plane_scale<T>(S::load(inv_two_beta2 + at))};
         const std::size_t* below = offsets.below + y;
         const std::size_t* above = offsets.above + (h - 1 - y);
         light_plane_lane_group_taps<1, false, T>(
-            rows, [&](std::size_t) { return c; }, r, a, ln, cos_threshold,
+            rows, [&](std::size_t) { return c; }, r, a, cos_threshold,
             [&](std::size_t k, std::size_t) { return std::pair<std::size_t, std::size_t>(above[k] + x0, below[k] + x0); },
             [&](std::size_t, vec sum, vec wsum) {
                 const vec out = S::select((r[0] > zero) & (wsum > zero), sum / wsum, cv);  // normalise_lanes
@@ -1642,7 +1742,7 @@ void light_plane_vertical_columns(const_image_view<T> src, image_view<T> dst, co
                     const std::size_t x = x0 + l;
                     if (!(full[l] > T(0)) || std::isfinite(cv[l])) continue;
                     const glm::vec<3, T> p = g.positions(x, y);
-                    if (!std::isfinite(p.x + p.y + p.z)) continue;  // no position: copied
+                    if (!has_position<offset_space::light_plane>(p, rows.basis)) continue;  // no position: copied
                     const T beta_px = beta(x, y) / pixel_size(x, y);
                     dst(x, y) = non_finite_centre_average<pass_direction::vertical, offset_space::light_plane>(
                         src, g, guide_center<T, G>(g, x, y), p, ln, x, y, y, h, static_cast<std::size_t>(full[l]),
