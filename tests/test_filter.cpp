@@ -810,17 +810,19 @@ namespace {
 /// How per_pixel_pass evaluates a light-plane tap's weight e^(−d²/(2β²)).
 enum class light_plane_arithmetic {
     paper,        ///< d² = |q − p|² − ((q − p)·n)² (FORMULAS §1.11 [AUTH]) and std::exp: the definition
-    coordinates,  ///< d² from the light-plane coordinates (detail::light_plane_coordinates; F5) and std::exp
+    coordinates,  ///< d² from the light-plane coordinates (detail::light_plane_coordinates; F3) and std::exp
     library,      ///< the coordinates and the library's vectorisable exp (detail::light_plane_weight; F1)
 };
 
 /// One pass evaluated pixel by pixel in the most direct way (the implementation before the lane-parallel
 /// rewrite): for each centre, k = 1..radius, the −k side then the +k side, the weight recurrence
 /// w_k = w_{k-1}·m_k, m_k *= q in image space and one exp per tap on the light plane, evaluated as `lp`
-/// says (docs/DEVIATIONS.md F1, F5). A non-finite centre uses the library's scalar rule
+/// says (docs/DEVIATIONS.md F1, F3). A non-finite centre uses the library's scalar rule
 /// (detail::non_finite_centre_average), which the fast path also calls.
+/// Not inlined nor specialised per mode (noipa): compiled once, as a reference should be (it found that
+/// GCC's FMA contraction gave the plane coordinates other bits here than in the library; plane_coordinate).
 template <bool Horizontal, class T, class G>
-void per_pixel_pass(aaf::const_image_view<T> src, aaf::image_view<T> dst, aaf::const_image_view<T> beta,
+[[gnu::noipa]] void per_pixel_pass(aaf::const_image_view<T> src, aaf::image_view<T> dst, aaf::const_image_view<T> beta,
                     aaf::const_image_view<T> d, const G& g, const glm::vec<3, T>& ln, const aaf::filter_settings<T>& s,
                     light_plane_arithmetic lp = light_plane_arithmetic::paper) {
     namespace ad = aaf::detail;
@@ -868,13 +870,12 @@ void per_pixel_pass(aaf::const_image_view<T> src, aaf::image_view<T> dst, aaf::c
                     if (!std::isfinite(v) || !gc.accepts(g, nx, ny, cos_thr)) continue;
                     T weight = wk;
                     if (light_plane) {
-                        if (lp == light_plane_arithmetic::paper)
-                            weight = std::exp(-ad::light_plane_distance2(g, nx, ny, p, ln) * inv_two_beta2);
-                        else if (lp == light_plane_arithmetic::coordinates)
-                            weight = std::exp(-ad::light_plane_coordinates_distance2(g, nx, ny, puv, basis) * inv_two_beta2);
-                        else
-                            weight = ad::light_plane_weight<T>(ad::light_plane_coordinates_distance2(g, nx, ny, puv, basis) *
-                                                               ad::light_plane_scale<T>(inv_two_beta2));
+                        // One d² expression for the two modes on the coordinates, so that they differ in the exp only.
+                        const T d2 = lp == light_plane_arithmetic::paper ? ad::light_plane_distance2(g, nx, ny, p, ln)
+                                                                         : ad::light_plane_coordinates_distance2(g, nx, ny, puv, basis);
+                        weight = lp == light_plane_arithmetic::library
+                                     ? ad::light_plane_weight<T>(d2 * ad::light_plane_scale<T>(inv_two_beta2))
+                                     : std::exp(-d2 * inv_two_beta2);
                         if (!std::isfinite(weight)) continue;
                     }
                     sum += weight * v;
@@ -951,7 +952,7 @@ T max_abs_difference(const aaf::image<T>& a, const aaf::image<T>& b, bool& non_f
 
 /// The largest differences seen between the light-plane fast path and the per-pixel evaluations with
 /// std::exp (tests of this file, per precision): [0] on the same plane coordinates (F1 alone), [1] with the
-/// paper's projected distance (F1 and F5), reported by the test below.
+/// paper's projected distance (F1 and F3), reported by the test below.
 template <class T>
 std::array<T, 2>& light_plane_differences() {
     static std::array<T, 2> worst{};
@@ -966,7 +967,7 @@ std::array<T, 2>& light_plane_differences() {
 /// the two differ by at most 2 ulp per weight (docs/DEVIATIONS.md F1); and within
 /// `light_plane_paper_tolerance` of the paper's projected distance with std::exp: the distance from plane
 /// coordinates rounds at the scale of the positions (up to 2.2 units here, 1/64 apart) instead of their
-/// differences (F5). The image-space comparison stays bitwise.
+/// differences (F3). The image-space comparison stays bitwise.
 template <class T>
 constexpr T light_plane_exp_tolerance = sizeof(T) == 4 ? T(1e-6) : T(2e-15);
 template <class T>

@@ -106,11 +106,18 @@ struct light_plane_basis {
     }
 };
 
-/// A position's coordinate along a basis axis (x·ex + y·ey + z·ez), for a scalar T or a vector of lanes:
-/// one source expression, so that fma contraction treats the row copies' lanes and the scalar rule alike.
-template <class V, class T>
-[[nodiscard]] V plane_coordinate(V x, V y, V z, const glm::vec<3, T>& axis) noexcept {
-    return x * axis.x + y * axis.y + z * axis.z;
+/// A position's coordinate along a basis axis, x·ex + y·ey + z·ez, with its roundings fixed: with an FMA
+/// instruction fma(z, ez, fma(y, ey, x·ex)) explicitly, else three products and two sums. GCC contracts
+/// a·b + c into an fma across statements, and which product it fuses depends on the code around it
+/// (measured: a per-pixel evaluation compiled without inlining fused them otherwise at x86-64-v3), so the
+/// plain expression gave a pixel's coordinates different bits in the row copies and in the scalar rule.
+template <class T>
+[[nodiscard]] inline T plane_coordinate(T x, T y, T z, const glm::vec<3, T>& axis) noexcept {
+#if defined(__FMA__) || defined(__ARM_FEATURE_FMA)
+    return std::fma(z, axis.z, std::fma(y, axis.y, x * axis.x));
+#else
+    return x * axis.x + y * axis.y + z * axis.z;  // no FMA instruction: nothing to contract
+#endif
 }
 
 /// The light-plane filter's squared distance from the differences of two pixels' plane coordinates
@@ -124,7 +131,7 @@ template <class V>
 /// through the basis (e1, e2, n) and the first two coordinates kept). The light-plane filter's distance is
 /// (u_q − u_p)² + (v_q − v_p)² from these, computed once per pixel: mathematically the projected distance
 /// |q − p|² − ((q − p)·n)² of [AUTH], in floating point rounded at the scale of |p| (the distance from the
-/// world's origin) instead of |q − p|; docs/DEVIATIONS.md F5 gives why and the measured difference. A
+/// world's origin) instead of |q − p|; docs/DEVIATIONS.md F3 gives why and the measured difference. A
 /// position is usable when u + v is finite (a non-finite component makes both non-finite).
 template <class T>
 [[nodiscard]] glm::vec<2, T> light_plane_coordinates(const glm::vec<3, T>& p, const light_plane_basis<T>& basis) noexcept {
@@ -157,7 +164,7 @@ template <offset_space Space, class T>
 /// narrow kernel every exp(−e) can underflow to 0 in T (e.g. β/d < 0.07 px in float: exp(−1/(2·0.07²)) = 0)
 /// although valid neighbours exist. The weights are normalised, so evaluate them relative to the largest,
 /// exp(−(e − e_min)); `centre` is returned only when no neighbour is accepted. On the light plane the
-/// distance is the paper's |q − p|² − ((q − p)·n)², not the passes' plane coordinates (F5): relative to
+/// distance is the paper's |q − p|² − ((q − p)·n)², not the passes' plane coordinates (F3): relative to
 /// the largest weight, the exponents' rounding at the scale of |p| would be amplified by their size (a
 /// difference of 1.5e−4 from the double reference in tests/test_filter.cpp), and this rule is rare and scalar.
 template <pass_direction Dir, offset_space Space, class T, class G>
@@ -304,22 +311,12 @@ struct row_buffers {
     std::vector<T> radius;  // filter_pass's `frame` only: each pixel's kernel radius, from the horizontal pass
 };
 
-/// Replaces `n` positions (x, y, z arrays) by their light-plane coordinates (u, v, 0), in vectors where it
-/// can: light_plane_coordinates's bits (one expression, plane_coordinate).
+/// Replaces `n` positions (x, y, z arrays) by their light-plane coordinates (u, v, 0): light_plane_coordinates's
+/// bits (plane_coordinate's fixed roundings, which the compiler's vectorisation of this loop keeps).
 template <class T>
 void to_plane_coordinates(T* AAF_DETAIL_RESTRICT x, T* AAF_DETAIL_RESTRICT y, T* AAF_DETAIL_RESTRICT z, std::size_t n,
                           const light_plane_basis<T>& basis) noexcept {
-    std::size_t i = 0;
-#if AAF_SIMD_BYTES > 0
-    using S = simd<T>;
-    for (; i + S::lanes <= n; i += S::lanes) {
-        const typename S::vec px = S::load(x + i), py = S::load(y + i), pz = S::load(z + i);
-        S::store(x + i, plane_coordinate(px, py, pz, basis.e1));
-        S::store(y + i, plane_coordinate(px, py, pz, basis.e2));
-        S::store(z + i, S::splat(T(0)));
-    }
-#endif
-    for (; i < n; ++i) {
+    for (std::size_t i = 0; i < n; ++i) {
         const T px = x[i], py = y[i], pz = z[i];
         x[i] = plane_coordinate(px, py, pz, basis.e1);
         y[i] = plane_coordinate(px, py, pz, basis.e2);
@@ -819,6 +816,22 @@ void light_plane_taps(std::size_t n, T k, T cos_threshold, const T* AAF_DETAIL_R
     }
 }
 
+#if AAF_SIMD_BYTES > 0
+/// Kernel radii (as T, 0 = copy) of a vector of centres from their β and d: kernel_radius in lanes (row_radii
+/// and the fused row copies of the vector passes).
+template <class T>
+[[nodiscard, gnu::always_inline]] inline typename simd<T>::vec kernel_radius_lanes(typename simd<T>::vec b, typename simd<T>::vec d,
+                                                                                 T truncation, T max_radius) noexcept {
+    using S = simd<T>;
+    using vec = typename S::vec;
+    const vec beta_px = b / d, zero = S::splat(T(0));
+    const vec t = truncation * beta_px, capped = S::select(t < max_radius, t, S::splat(max_radius));
+    const typename S::mask has = (b > zero) & (d > zero) & (beta_px > zero);
+    const vec whole = __builtin_convertvector(__builtin_convertvector(S::select(has, capped, zero), typename S::mask), vec);
+    return S::select(has, S::select(whole < capped, whole + T(1), whole), zero);
+}
+#endif
+
 /// Kernel radii (as T, 0 = copy) of row `y`'s centres into `st.full_radius`; returns the row's β and d
 /// (in place when packed, else copied to `st.beta`, `st.pixel_size`). Vectorised form of kernel_radius,
 /// the same numbers.
@@ -833,14 +846,8 @@ std::pair<const T*, const T*> row_radii(lane_state<T>& st, const_image_view<T> b
     std::size_t x0 = 0;
 #if AAF_SIMD_BYTES > 0
     using S = simd<T>;
-    using vec = typename S::vec;
-    for (; x0 + S::lanes <= w; x0 += S::lanes) {  // the loop below, in vectors
-        const vec b = S::load(bw + x0), d = S::load(dw + x0), beta_px = b / d, zero = S::splat(T(0));
-        const vec t = truncation * beta_px, capped = S::select(t < max_radius, t, S::splat(max_radius));
-        const typename S::mask has = (b > zero) & (d > zero) & (beta_px > zero);
-        const vec whole = __builtin_convertvector(__builtin_convertvector(S::select(has, capped, zero), typename S::mask), vec);
-        S::store(radius + x0, S::select(has, S::select(whole < capped, whole + T(1), whole), zero));
-    }
+    for (; x0 + S::lanes <= w; x0 += S::lanes)  // the loop below, in vectors
+        S::store(radius + x0, kernel_radius_lanes<T>(S::load(bw + x0), S::load(dw + x0), truncation, max_radius));
 #endif
     for (std::size_t x = x0; x < w; ++x) {
         const T b = bw[x], d = dw[x], beta_px = b / d;
@@ -1304,6 +1311,26 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
 }
 
 #if AAF_SIMD_BYTES > 0
+/// Copies the values `value` of pixels [x, x + lanes) of image row y and their normals and IDs to element
+/// c + x of `rows` (the fused row copies: tap_rows::load's numbers, a non-finite value getting a NaN normal
+/// x); returns the lanes whose value is finite.
+template <class T, class Rows, class G>
+[[gnu::always_inline]] inline auto load_lanes(const Rows& rows, std::size_t c, std::size_t x, std::size_t y, const G& g,
+                                              typename simd<T>::vec value) noexcept {
+    using S = simd<T>;
+    using vec = typename S::vec;
+    S::store(rows.v + c + x, value);
+    const auto finite = S::finite(value);
+    if constexpr (Rows::normals) {
+        vec nx, ny, nz;
+        S::deinterleave3(&g.normals(x, y).x, nx, ny, nz);
+        S::store(rows.nx + c + x, S::select(finite, nx, S::splat(std::numeric_limits<T>::quiet_NaN())));
+        S::store(rows.ny + c + x, ny), S::store(rows.nz + c + x, nz);
+    }
+    if constexpr (Rows::ids) std::memcpy(rows.id + c + x, &g.ids(x, y), S::lanes * sizeof(std::uint32_t));
+    return finite;
+}
+
 /// Rows per task of the horizontal image-space pass on the frame's rows (image_horizontal_rows): small,
 /// so that two or three threads share the rows evenly (a 64-row task was a twelfth of a 720-row frame).
 inline constexpr std::size_t image_rows_per_task = 16;
@@ -1348,25 +1375,13 @@ void image_horizontal_rows(const_image_view<T> src, image_view<T> dst, const_ima
             const T* AAF_DETAIL_RESTRICT vin = &src(0, y);
             const T* AAF_DETAIL_RESTRICT bw = &beta(0, y);
             const T* AAF_DETAIL_RESTRICT dw = &pixel_size(0, y);
-            T* AAF_DETAIL_RESTRICT v = rows.v + c;
             // tap_rows::load (a non-finite value gets a NaN normal x), row_radii and image_lanes, per vector.
             const auto lanes = [&](std::size_t x, vec value) {
-                S::store(v + x, value);
-                const auto finite = S::finite(value);
-                if constexpr (normals) {
-                    vec nx, ny, nz;
-                    S::deinterleave3(&g.normals(x, y).x, nx, ny, nz);
-                    S::store(rows.nx + c + x, S::select(finite, nx, S::splat(nan)));
-                    S::store(rows.ny + c + x, ny), S::store(rows.nz + c + x, nz);
-                }
-                if constexpr (ids) std::memcpy(rows.id + c + x, &g.ids(x, y), N * sizeof(std::uint32_t));
-                const vec b = S::load(bw + x), d = S::load(dw + x), beta_px = b / d, zero = S::splat(T(0));
-                const vec t = truncation * beta_px, capped = S::select(t < max_radius, t, S::splat(max_radius));
-                const typename S::mask has = (b > zero) & (d > zero) & (beta_px > zero);
-                const vec whole = __builtin_convertvector(__builtin_convertvector(S::select(has, capped, zero), typename S::mask), vec);
-                const vec r = S::select(has, S::select(whole < capped, whole + T(1), whole), zero);
+                const auto finite = load_lanes<T>(rows, c, x, y, g, value);
+                const vec b = S::load(bw + x), d = S::load(dw + x), beta_px = b / d;
+                const vec r = kernel_radius_lanes<T>(b, d, truncation, max_radius);
                 S::store(full + x, r);
-                S::store(radius + x, S::select(finite, r, zero));
+                S::store(radius + x, S::select(finite, r, S::splat(T(0))));
                 S::store(a + x, T(1) / (T(2) * beta_px * beta_px));
             };
             std::size_t x = 0;
@@ -1458,34 +1473,27 @@ void light_plane_horizontal_rows(const_image_view<T> src, image_view<T> dst, con
             const T* AAF_DETAIL_RESTRICT vin = &src(0, y);
             const T* AAF_DETAIL_RESTRICT bw = &beta(0, y);
             const T* AAF_DETAIL_RESTRICT dw = &pixel_size(0, y);
-            T* AAF_DETAIL_RESTRICT v = rows.v + c;
             // tap_rows::load (a non-finite value gets a NaN normal x), row_radii and setup_lanes, per vector.
             const auto lanes = [&](std::size_t x, vec value) {
-                S::store(v + x, value);
-                const auto finite = S::finite(value);
-                if constexpr (normals) {
-                    vec nx, ny, nz;
-                    S::deinterleave3(&g.normals(x, y).x, nx, ny, nz);
-                    S::store(rows.nx + c + x, S::select(finite, nx, S::splat(nan)));
-                    S::store(rows.ny + c + x, ny), S::store(rows.nz + c + x, nz);
-                }
-                if constexpr (ids) std::memcpy(rows.id + c + x, &g.ids(x, y), N * sizeof(std::uint32_t));
-                vec px, py, pz;  // to plane coordinates (u, v, 0) as tap_rows::load (to_plane_coordinates)
+                const auto finite = load_lanes<T>(rows, c, x, y, g, value);
+                vec px, py, pz;  // to plane coordinates below, as tap_rows::load does
                 S::deinterleave3(&g.positions(x, y).x, px, py, pz);
-                const vec u = plane_coordinate(px, py, pz, rows.basis.e1), pv = plane_coordinate(px, py, pz, rows.basis.e2);
-                S::store(rows.px + c + x, u), S::store(rows.py + c + x, pv), S::store(rows.pz + c + x, S::splat(T(0)));
-                const vec b = S::load(bw + x), d = S::load(dw + x), beta_px = b / d, zero = S::splat(T(0));
-                const vec t = truncation * beta_px, capped = S::select(t < max_radius, t, S::splat(max_radius));
-                const typename S::mask has = (b > zero) & (d > zero) & (beta_px > zero);
-                const vec whole = __builtin_convertvector(__builtin_convertvector(S::select(has, capped, zero), typename S::mask), vec);
-                const vec r = S::select(has, S::select(whole < capped, whole + T(1), whole), zero);
-                S::store(full + x, r);
-                S::store(radius + x, S::select(finite & S::finite(u + pv), r, zero));  // setup_lanes: u + v + 0
+                S::store(rows.px + c + x, px), S::store(rows.py + c + x, py), S::store(rows.pz + c + x, pz);
+                const vec b = S::load(bw + x);
+                S::store(full + x, kernel_radius_lanes<T>(b, S::load(dw + x), truncation, max_radius));
+                S::store(radius + x, S::select(finite, S::splat(T(1)), S::splat(T(0))));  // a finite value
                 S::store(ib + x, T(1) / (T(2) * b * b));
             };
             std::size_t x = 0;
             for (; x + N <= w; x += N) lanes(x, S::load(vin + x));
             if (x < w) lanes(w - N, S::load(vin + w - N));  // the last vector again, ending at w − 1: same numbers
+            to_plane_coordinates(rows.px + c, rows.py + c, rows.pz + c, w, rows.basis);
+            // setup_lanes: taps for a finite value (the 1 above) with a usable position (u + v + 0 finite).
+            const T* AAF_DETAIL_RESTRICT pu = rows.px + c;
+            const T* AAF_DETAIL_RESTRICT pv = rows.py + c;
+            const T* AAF_DETAIL_RESTRICT pz = rows.pz + c;
+            for (std::size_t i = 0; i < w; ++i)
+                radius[i] = (radius[i] > T(0)) & (std::abs(pu[i] + pv[i] + pz[i]) <= max_finite) ? full[i] : T(0);
         } else {
             rows.load(y, fl.margin, src, g, y);
             const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
@@ -1956,7 +1964,8 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
 /// * `filter_width` β is per pixel in world units (formulas.hpp); β ≤ 0 or NaN = leave that pixel as is.
 /// * `pixel_size` d is each pixel's projected footprint (world units); image-space offsets use β/d pixels.
 /// * Offsets in `offset_space::light_plane` need `guides.positions` and use distances projected on the
-///   plane of `light_normal`; the window is still sized by β/d. `offset_space::tangent_plane` needs
+///   plane of `light_normal`, from each pixel's coordinates in that plane (docs/DEVIATIONS.md F3: rounded
+///   at the scale of the positions); the window is still sized by β/d. `offset_space::tangent_plane` needs
 ///   `guides.positions` and `guides.normals` (unit) and projects on each centre's own tangent plane.
 /// * Non-finite visibility never spreads: such neighbours are skipped; a non-finite centre takes its
 ///   valid neighbours' average (or stays as it was if it has none).
