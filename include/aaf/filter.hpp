@@ -817,14 +817,15 @@ void light_plane_taps(std::size_t n, T k, T cos_threshold, const T* AAF_DETAIL_R
 }
 
 #if AAF_SIMD_BYTES > 0
-/// Kernel radii (as T, 0 = copy) of a vector of centres from their β and d: kernel_radius in lanes (row_radii
-/// and the fused row copies of the vector passes).
+/// Kernel radii (as T, 0 = copy) of a vector of centres from their β, d and β/d: kernel_radius in lanes
+/// (row_radii and the fused row copies of the vector passes, which use β/d again).
 template <class T>
 [[nodiscard, gnu::always_inline]] inline typename simd<T>::vec kernel_radius_lanes(typename simd<T>::vec b, typename simd<T>::vec d,
-                                                                                 T truncation, T max_radius) noexcept {
+                                                                                 typename simd<T>::vec beta_px, T truncation,
+                                                                                 T max_radius) noexcept {
     using S = simd<T>;
     using vec = typename S::vec;
-    const vec beta_px = b / d, zero = S::splat(T(0));
+    const vec zero = S::splat(T(0));
     const vec t = truncation * beta_px, capped = S::select(t < max_radius, t, S::splat(max_radius));
     const typename S::mask has = (b > zero) & (d > zero) & (beta_px > zero);
     const vec whole = __builtin_convertvector(__builtin_convertvector(S::select(has, capped, zero), typename S::mask), vec);
@@ -846,8 +847,10 @@ std::pair<const T*, const T*> row_radii(lane_state<T>& st, const_image_view<T> b
     std::size_t x0 = 0;
 #if AAF_SIMD_BYTES > 0
     using S = simd<T>;
-    for (; x0 + S::lanes <= w; x0 += S::lanes)  // the loop below, in vectors
-        S::store(radius + x0, kernel_radius_lanes<T>(S::load(bw + x0), S::load(dw + x0), truncation, max_radius));
+    for (; x0 + S::lanes <= w; x0 += S::lanes) {  // the loop below, in vectors
+        const typename S::vec b = S::load(bw + x0), d = S::load(dw + x0);
+        S::store(radius + x0, kernel_radius_lanes<T>(b, d, b / d, truncation, max_radius));
+    }
 #endif
     for (std::size_t x = x0; x < w; ++x) {
         const T b = bw[x], d = dw[x], beta_px = b / d;
@@ -1379,7 +1382,7 @@ void image_horizontal_rows(const_image_view<T> src, image_view<T> dst, const_ima
             const auto lanes = [&](std::size_t x, vec value) {
                 const auto finite = load_lanes<T>(rows, c, x, y, g, value);
                 const vec b = S::load(bw + x), d = S::load(dw + x), beta_px = b / d;
-                const vec r = kernel_radius_lanes<T>(b, d, truncation, max_radius);
+                const vec r = kernel_radius_lanes<T>(b, d, beta_px, truncation, max_radius);
                 S::store(full + x, r);
                 S::store(radius + x, S::select(finite, r, S::splat(T(0))));
                 S::store(a + x, T(1) / (T(2) * beta_px * beta_px));
@@ -1479,8 +1482,8 @@ void light_plane_horizontal_rows(const_image_view<T> src, image_view<T> dst, con
                 vec px, py, pz;  // to plane coordinates below, as tap_rows::load does
                 S::deinterleave3(&g.positions(x, y).x, px, py, pz);
                 S::store(rows.px + c + x, px), S::store(rows.py + c + x, py), S::store(rows.pz + c + x, pz);
-                const vec b = S::load(bw + x);
-                S::store(full + x, kernel_radius_lanes<T>(b, S::load(dw + x), truncation, max_radius));
+                const vec b = S::load(bw + x), d = S::load(dw + x);
+                S::store(full + x, kernel_radius_lanes<T>(b, d, b / d, truncation, max_radius));
                 S::store(radius + x, S::select(finite, S::splat(T(1)), S::splat(T(0))));  // a finite value
                 S::store(ib + x, T(1) / (T(2) * b * b));
             };
