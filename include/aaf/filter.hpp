@@ -1334,6 +1334,18 @@ template <class T, class Rows, class G>
     return finite;
 }
 
+/// Whether the horizontal passes on the frame's rows can copy a row in one loop of vectors: the pass's
+/// views and the guides it uses have packed rows (GLM's vectors of three packed T for normals, positions).
+template <class T, class G>
+[[nodiscard]] bool fused_row_copies(const_image_view<T> src, const_image_view<T> beta, const_image_view<T> pixel_size,
+                                    const G& g) noexcept {
+    bool fused = src.packed_rows() && beta.packed_rows() && pixel_size.packed_rows();
+    if constexpr (G::has_normals) fused = fused && g.normals.packed_rows() && sizeof(glm::vec<3, T>) == 3 * sizeof(T);
+    if constexpr (G::has_ids) fused = fused && g.ids.packed_rows();
+    if constexpr (G::has_positions) fused = fused && g.positions.packed_rows() && sizeof(glm::vec<3, T>) == 3 * sizeof(T);
+    return fused;
+}
+
 /// Rows per task of the horizontal image-space pass on the frame's rows (image_horizontal_rows): small,
 /// so that two or three threads share the rows evenly (a 64-row task was a twelfth of a 720-row frame).
 inline constexpr std::size_t image_rows_per_task = 16;
@@ -1352,7 +1364,6 @@ void image_horizontal_rows(const_image_view<T> src, image_view<T> dst, const_ima
     using S = simd<T>;
     using vec = typename S::vec;
     constexpr std::size_t N = S::lanes, G2 = filter_vector_groups;
-    constexpr bool normals = G::has_normals, ids = G::has_ids;
     constexpr T max_finite = std::numeric_limits<T>::max();
     [[maybe_unused]] constexpr T nan = std::numeric_limits<T>::quiet_NaN();
     const std::size_t w = src.width(), h = src.height();
@@ -1363,11 +1374,9 @@ void image_horizontal_rows(const_image_view<T> src, image_view<T> dst, const_ima
     lane_state<T>& st = ws.st;
     T* AAF_DETAIL_RESTRICT radius = st.radius.data();
     T* AAF_DETAIL_RESTRICT a = st.a.data();
-    // One loop per row when every view is packed (GLM's packed vectors for the normals), else the general
-    // row copies (tap_rows::load, row_radii, image_lanes), which compute the same numbers.
-    bool fused = src.packed_rows() && beta.packed_rows() && pixel_size.packed_rows();
-    if constexpr (normals) fused = fused && g.normals.packed_rows() && sizeof(glm::vec<3, T>) == 3 * sizeof(T);
-    if constexpr (ids) fused = fused && g.ids.packed_rows();
+    // One loop per row when every view is packed, else the general row copies (tap_rows::load, row_radii,
+    // image_lanes), which compute the same numbers.
+    const bool fused = fused_row_copies(src, beta, pixel_size, g);
     const T truncation = s.truncation, max_radius = static_cast<T>(s.max_radius);
     for (std::size_t y = y_begin; y < y_end; ++y) {
         const std::size_t c = y * fl.stride + fl.margin;
@@ -1451,7 +1460,6 @@ void light_plane_horizontal_rows(const_image_view<T> src, image_view<T> dst, con
     using S = simd<T>;
     using vec = typename S::vec;
     constexpr std::size_t N = S::lanes;
-    constexpr bool normals = G::has_normals, ids = G::has_ids;
     constexpr T max_finite = std::numeric_limits<T>::max();
     [[maybe_unused]] constexpr T nan = std::numeric_limits<T>::quiet_NaN();
     const std::size_t w = src.width();
@@ -1462,9 +1470,7 @@ void light_plane_horizontal_rows(const_image_view<T> src, image_view<T> dst, con
     rows.resize(src.height() + 1, fl.stride, true);  // already that size: no allocation
     lane_state<T>& st = ws.st;
     T* AAF_DETAIL_RESTRICT radius = st.radius.data();
-    bool fused = src.packed_rows() && beta.packed_rows() && g.positions.packed_rows() && sizeof(glm::vec<3, T>) == 3 * sizeof(T);
-    if constexpr (normals) fused = fused && g.normals.packed_rows();
-    if constexpr (ids) fused = fused && g.ids.packed_rows();
+    const bool fused = fused_row_copies(src, beta, pixel_size, g);  // else tap_rows::load, row_radii, setup_lanes
     const T truncation = s.truncation, max_radius = static_cast<T>(s.max_radius);
     for (std::size_t y = y_begin; y < y_end; ++y) {
         const std::size_t c = y * fl.stride + fl.margin;
@@ -1472,7 +1478,7 @@ void light_plane_horizontal_rows(const_image_view<T> src, image_view<T> dst, con
         rows.fill(y, fl.margin + w, fl.stride);
         T* AAF_DETAIL_RESTRICT full = &frame.radius[y * w];
         T* AAF_DETAIL_RESTRICT ib = inv_two_beta2 + y * w;
-        if (fused && pixel_size.packed_rows()) {
+        if (fused) {
             const T* AAF_DETAIL_RESTRICT vin = &src(0, y);
             const T* AAF_DETAIL_RESTRICT bw = &beta(0, y);
             const T* AAF_DETAIL_RESTRICT dw = &pixel_size(0, y);
