@@ -819,10 +819,16 @@ enum class light_plane_arithmetic {
 /// w_k = w_{k-1}·m_k, m_k *= q in image space and one exp per tap on the light plane, evaluated as `lp`
 /// says (docs/DEVIATIONS.md F1, F3). A non-finite centre uses the library's scalar rule
 /// (detail::non_finite_centre_average), which the fast path also calls.
-/// Not inlined nor specialised per mode (noipa): compiled once, as a reference should be (it found that
-/// GCC's FMA contraction gave the plane coordinates other bits here than in the library; plane_coordinate).
+/// Not inlined nor specialised per mode (GCC's noipa; Clang: noinline): compiled once, as a reference should
+/// be (it found that GCC's FMA contraction gave the plane coordinates other bits here than in the library;
+/// plane_coordinate).
+#if defined(__clang__)
+#define AAF_TEST_COMPILED_ONCE [[gnu::noinline]]
+#else
+#define AAF_TEST_COMPILED_ONCE [[gnu::noipa]]
+#endif
 template <bool Horizontal, class T, class G>
-[[gnu::noipa]] void per_pixel_pass(aaf::const_image_view<T> src, aaf::image_view<T> dst, aaf::const_image_view<T> beta,
+AAF_TEST_COMPILED_ONCE void per_pixel_pass(aaf::const_image_view<T> src, aaf::image_view<T> dst, aaf::const_image_view<T> beta,
                     aaf::const_image_view<T> d, const G& g, const glm::vec<3, T>& ln, const aaf::filter_settings<T>& s,
                     light_plane_arithmetic lp = light_plane_arithmetic::paper) {
     namespace ad = aaf::detail;

@@ -1502,7 +1502,7 @@ void light_plane_horizontal_rows(const_image_view<T> src, image_view<T> dst, con
             const T* AAF_DETAIL_RESTRICT pv = rows.py + c;
             const T* AAF_DETAIL_RESTRICT pz = rows.pz + c;
             for (std::size_t i = 0; i < w; ++i)
-                radius[i] = (radius[i] > T(0)) & (std::abs(pu[i] + pv[i] + pz[i]) <= max_finite) ? full[i] : T(0);
+                radius[i] = ((radius[i] > T(0)) & (std::abs(pu[i] + pv[i] + pz[i]) <= max_finite)) ? full[i] : T(0);
         } else {
             rows.load(y, fl.margin, src, g, y);
             const auto [bw, dw] = row_radii(st, beta, pixel_size, s, y);
