@@ -845,7 +845,7 @@ AAF_TEST_COMPILED_ONCE void per_pixel_pass(aaf::const_image_view<T> src, aaf::im
             const ad::guide_center<T, G> gc(g, x, y);
             glm::vec<3, T> p{0};
             const T inv_two_beta2 = T(1) / (T(2) * b * b);
-            const ad::light_plane_basis<T> basis(ln);
+            const aaf::tangent_frame<T> basis(ln);
             glm::vec<2, T> puv{0};
             if (light_plane) {
                 p = g.positions(x, y);

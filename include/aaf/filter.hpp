@@ -29,6 +29,7 @@
 #include "settings.hpp"
 #include "simd.hpp"
 #include "simd_exp.hpp"
+#include "tangent_frame.hpp"
 
 namespace aaf {
 inline namespace v0 {
@@ -93,19 +94,6 @@ template <class T, class G>
     return light_plane_distance2<T>(g.positions(nx, ny), p, n);
 }
 
-/// Two unit vectors that complete the unit light normal `n` to an orthonormal basis: the axes of the
-/// light-plane coordinates. The branchless construction of Duff et al., "Building an Orthonormal Basis,
-/// Revisited" (JCGT 6(1), 2017), listing 3.
-template <class T>
-struct light_plane_basis {
-    glm::vec<3, T> e1, e2;
-    explicit light_plane_basis(const glm::vec<3, T>& n) noexcept {
-        const T sign = std::copysign(T(1), n.z), a = T(-1) / (sign + n.z), b = n.x * n.y * a;
-        e1 = {T(1) + sign * n.x * n.x * a, sign * b, -sign * n.x};
-        e2 = {b, sign + n.y * n.y * a, -n.y};
-    }
-};
-
 /// A position's coordinate along a basis axis, x·ex + y·ey + z·ez, with its roundings fixed: with an FMA
 /// instruction fma(z, ez, fma(y, ey, x·ex)) explicitly, else three products and two sums. GCC contracts
 /// a·b + c into an fma across statements, and which product it fuses depends on the code around it
@@ -127,22 +115,22 @@ template <class V>
     return du * du + dv * dv;
 }
 
-/// A position's light-plane coordinates (u, v) = (p·e1, p·e2) (FORMULAS §1.11 [BS]: positions mapped
-/// through the basis (e1, e2, n) and the first two coordinates kept). The light-plane filter's distance is
+/// A position's light-plane coordinates (u, v) = (p·t, p·b) (FORMULAS §1.11 [BS]: positions mapped
+/// through the basis (t, b, n) of tangent_frame(n), Duff et al. 2017, and the first two coordinates kept). The light-plane filter's distance is
 /// (u_q − u_p)² + (v_q − v_p)² from these, computed once per pixel: mathematically the projected distance
 /// |q − p|² − ((q − p)·n)² of [AUTH], in floating point rounded at the scale of |p| (the distance from the
 /// world's origin) instead of |q − p|; docs/DEVIATIONS.md F3 gives why and the measured difference. A
 /// position is usable when u + v is finite (a non-finite component makes both non-finite).
 template <class T>
-[[nodiscard]] glm::vec<2, T> light_plane_coordinates(const glm::vec<3, T>& p, const light_plane_basis<T>& basis) noexcept {
-    return {plane_coordinate<T>(p.x, p.y, p.z, basis.e1), plane_coordinate<T>(p.x, p.y, p.z, basis.e2)};
+[[nodiscard]] glm::vec<2, T> light_plane_coordinates(const glm::vec<3, T>& p, const tangent_frame<T>& basis) noexcept {
+    return {plane_coordinate<T>(p.x, p.y, p.z, basis.t), plane_coordinate<T>(p.x, p.y, p.z, basis.b)};
 }
 
 /// The light-plane filter's squared distance between the centre at plane coordinates `p` and neighbour
 /// (nx, ny) of the guides' positions.
 template <class T, class G>
 [[nodiscard]] T light_plane_coordinates_distance2(const G& g, std::size_t nx, std::size_t ny, const glm::vec<2, T>& p,
-                                                  const light_plane_basis<T>& basis) noexcept {
+                                                  const tangent_frame<T>& basis) noexcept {
     const glm::vec<2, T> q = light_plane_coordinates<T>(g.positions(nx, ny), basis);
     return plane_coordinates_distance2<T>(q.x - p.x, q.y - p.y);
 }
@@ -150,7 +138,7 @@ template <class T, class G>
 /// Whether a centre at `p` has a position the pass can use: its light-plane coordinates' sum is finite (the
 /// lanes test u + v + 0, tap_rows::plane_coordinates), in the tangent plane its components' sum.
 template <offset_space Space, class T>
-[[nodiscard]] bool has_position(const glm::vec<3, T>& p, const light_plane_basis<T>& basis) noexcept {
+[[nodiscard]] bool has_position(const glm::vec<3, T>& p, const tangent_frame<T>& basis) noexcept {
     if constexpr (Space == offset_space::light_plane) {
         const glm::vec<2, T> uv = light_plane_coordinates<T>(p, basis);
         return std::isfinite(uv.x + uv.y + T(0));
@@ -315,11 +303,11 @@ struct row_buffers {
 /// bits (plane_coordinate's fixed roundings, which the compiler's vectorisation of this loop keeps).
 template <class T>
 void to_plane_coordinates(T* AAF_DETAIL_RESTRICT x, T* AAF_DETAIL_RESTRICT y, T* AAF_DETAIL_RESTRICT z, std::size_t n,
-                          const light_plane_basis<T>& basis) noexcept {
+                          const tangent_frame<T>& basis) noexcept {
     for (std::size_t i = 0; i < n; ++i) {
         const T px = x[i], py = y[i], pz = z[i];
-        x[i] = plane_coordinate(px, py, pz, basis.e1);
-        y[i] = plane_coordinate(px, py, pz, basis.e2);
+        x[i] = plane_coordinate(px, py, pz, basis.t);
+        y[i] = plane_coordinate(px, py, pz, basis.b);
         z[i] = T(0);
     }
 }
@@ -339,7 +327,7 @@ struct tap_rows {
     static constexpr bool plane_coordinates = Space == offset_space::light_plane;
     std::size_t stride = 0;
     row_buffers<T>& buffers;
-    light_plane_basis<T> basis{glm::vec<3, T>(0, 0, 1)};  // light plane: set by the pass (its unit light normal)
+    tangent_frame<T> basis{glm::vec<3, T>(0, 0, 1)};  // light plane: set by the pass (its unit light normal)
     // Not cleared: every element is written by `load` or `fill` before the lanes read it.
     T *v = nullptr, *nx = nullptr, *ny = nullptr, *nz = nullptr, *px = nullptr, *py = nullptr, *pz = nullptr;
     std::uint32_t* id = nullptr;
@@ -1042,7 +1030,7 @@ void filter_pass(const_image_view<T> src, image_view<T> dst, const_image_view<T>
 
     lane_state<T>& st = ws.st;
     tap_rows<T, G, Space> rows(frame ? *frame : ws.rows);
-    if constexpr (Space == offset_space::light_plane) rows.basis = light_plane_basis<T>(light_normal);
+    if constexpr (Space == offset_space::light_plane) rows.basis = tangent_frame<T>(light_normal);
     std::vector<unsigned char>&lok = ws.lok, &rok = ws.rok;  // light plane: the lanes' accepted taps
     const std::size_t margin = image_row_margin(s);  // horizontal: NaN elements left and right of the row
     std::size_t first_row = 0;                      // vertical: image row held in buffer row 0
@@ -1465,7 +1453,7 @@ void light_plane_horizontal_rows(const_image_view<T> src, image_view<T> dst, con
     const std::size_t w = src.width();
     const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
     tap_rows<T, G, offset_space::light_plane> rows(frame);
-    rows.basis = light_plane_basis<T>(ln);
+    rows.basis = tangent_frame<T>(ln);
     const frame_layout fl = image_frame_layout(w, s);
     rows.resize(src.height() + 1, fl.stride, true);  // already that size: no allocation
     lane_state<T>& st = ws.st;
@@ -1708,7 +1696,7 @@ void light_plane_vertical_columns(const_image_view<T> src, image_view<T> dst, co
     const std::size_t w = src.width(), h = src.height(), tasks = image_column_tasks<T>(w);
     const T cos_threshold = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
     tap_rows<T, G, offset_space::light_plane> rows(frame);
-    rows.basis = light_plane_basis<T>(ln);  // the scalar rule's has_position
+    rows.basis = tangent_frame<T>(ln);  // the scalar rule's has_position
     const frame_layout fl = image_frame_layout(w, s);
     rows.resize(h + 1, fl.stride, true);  // already that size: no allocation, the same arrays in every task
     const auto row_start = [&](std::size_t r) { return r * fl.stride + fl.margin; };

@@ -14,6 +14,7 @@
 #include <glm/vec3.hpp>
 
 #include "../sampler.hpp"
+#include "../tangent_frame.hpp"
 
 namespace aaf {
 inline namespace v0 {
@@ -36,26 +37,6 @@ enum class hemisphere_sampling {
     }
     return "?";
 }
-
-/// An orthonormal basis (t, b, n) around a unit normal n: world = t·x + b·y + n·z.
-template <class T = float>
-struct tangent_frame {
-    glm::vec<3, T> t{1, 0, 0}, b{0, 1, 0}, n{0, 0, 1};
-
-    tangent_frame() = default;
-    /// From a unit normal, without branches on a threshold (Duff et al. 2017, "Building an orthonormal
-    /// basis, revisited"): continuous everywhere except across n.z = 0's sign, and exact to rounding.
-    explicit tangent_frame(const glm::vec<3, T>& normal) noexcept : n(normal) {
-        const T sign = std::copysign(T(1), n.z);
-        const T a = T(-1) / (sign + n.z);
-        const T c = n.x * n.y * a;
-        t = {T(1) + sign * n.x * n.x * a, sign * c, -sign * n.x};
-        b = {c, sign + n.y * n.y * a, -n.y};
-    }
-    [[nodiscard]] glm::vec<3, T> to_world(const glm::vec<3, T>& local) const noexcept {
-        return t * local.x + b * local.y + n * local.z;
-    }
-};
 
 /// Maps a point of [0, 1)² to a direction of the hemisphere z ≥ 0 (local frame, z = cos θ).
 /// * cosine: Shirley–Chiu concentric disc (it keeps the strata's shapes compact, so stratification and the
