@@ -90,6 +90,28 @@ TEMPLATE_TEST_CASE("simd_exp: exp2_nonpositive and the weight at their limits", 
     CHECK_FALSE(aaf::detail::light_plane_accepts<T>(nan));
 }
 
+TEST_CASE("simd_exp: the float eighths table holds 2^(j/8) rounded to float, and the method exp2_nonpositive uses is "
+          "the build's", "[filter][simd_exp]") {
+    // Rounded from double's 2^(j/8) (within 1 ulp of double: far inside half a float ulp unless a value sat
+    // on a float midpoint, which none of these does — mpmath at 200 bits gives the same floats).
+    for (int j = 0; j < 8; ++j) CHECK(aaf::detail::exp2_8th[j] == static_cast<float>(std::exp2(j / 8.0)));
+    // The table path needs AVX2's permute under GCC; elsewhere the polynomial (both pass the tests above).
+#if AAF_SIMD_BYTES >= 32 && defined(__AVX2__) && defined(__GNUC__) && !defined(__clang__)
+    CHECK(aaf::detail::exp2_float_eighths);
+#else
+    CHECK_FALSE(aaf::detail::exp2_float_eighths);
+#endif
+    // Every eighth from 0 to −125 in the table path is t·2^n exactly (r = 0): the rounding, the index and
+    // the exponent field work at every step of the range, and 2^(−j/8) lies on the table's own values.
+    for (int m = 0; m >= -1000; --m) {
+        const float x = static_cast<float>(m) / 8.0f;
+        const int j = ((m % 8) + 8) % 8, n = (m - j) / 8;
+        const float want = aaf::detail::exp2_float_eighths ? std::ldexp(aaf::detail::exp2_8th[j], n) : fast_exp(x);
+        INFO("x = " << x);
+        CHECK(fast_exp(x) == want);
+    }
+}
+
 TEMPLATE_TEST_CASE("simd_exp: exp_nonpositive is within 2 ulp of e^x, plus a step in the subnormals, until it rounds to 0",
                    "[simd_exp][subsurface]", float, double) {
     using T = TestType;

@@ -671,6 +671,7 @@ void light_plane_lane_group_taps(const Rows& rows, Centre&& centre, const typena
     [[maybe_unused]] vec cpz[Groups], cnx[Groups], cny[Groups], cnz[Groups];
     [[maybe_unused]] typename S::id cid[Groups];
     std::int32_t steps = 0;  // the largest radius (whole numbers in [0, 1024]; an integer max vectorises)
+    std::int32_t common = std::numeric_limits<std::int32_t>::max();  // the smallest: every lane takes its taps
     for (std::size_t g = 0; g < Groups; ++g) {
         const std::size_t c = centre(g);
         r[g] = radius[g];
@@ -682,17 +683,17 @@ void light_plane_lane_group_taps(const Rows& rows, Centre&& centre, const typena
         if constexpr (normals) cnx[g] = S::load(&rows.nx[c]), cny[g] = S::load(&rows.ny[c]), cnz[g] = S::load(&rows.nz[c]);
         if constexpr (ids) cid[g] = S::template load<typename S::id>(&rows.id[c]);
         const auto whole = __builtin_convertvector(r[g], mask);
-        for (std::size_t l = 0; l < N; ++l) steps = std::max(steps, static_cast<std::int32_t>(whole[l]));
+        for (std::size_t l = 0; l < N; ++l) {
+            steps = std::max(steps, static_cast<std::int32_t>(whole[l]));
+            common = std::min(common, static_cast<std::int32_t>(whole[l]));
+        }
     }
     const vec threshold = S::splat(cos_threshold);
-    const auto tap = [&](std::size_t g, std::size_t i, vec distance) {
+    // Up to `common` every lane's radius reaches the distance and the test is left out (`Check` false): it
+    // and its `and` are 2-3 of the tap's ~40 operations, whose count bounds this loop. The test is in `tap`,
+    // not shared by the two sides, for the reason given in image_lane_group_taps.
+    const auto tap = [&]<bool Check>(std::bool_constant<Check>, std::size_t g, std::size_t i, vec distance) {
         const vec value = S::load(v + i);
-        mask ok = distance <= r[g];
-        // False for ±Inf and NaN; with normals, tap_rows gave such values a NaN normal instead.
-        if constexpr (!normals) ok = ok & S::finite(value);
-        if constexpr (ids) ok = ok & S::equal(S::template load<typename S::id>(&rows.id[i]), cid[g]);
-        if constexpr (normals)
-            ok = ok & (cnx[g] * S::load(&rows.nx[i]) + cny[g] * S::load(&rows.ny[i]) + cnz[g] * S::load(&rows.nz[i]) >= threshold);
         vec d2;
         if constexpr (Tangent) {  // light_plane_distance2: dp = q − p; |dp|² − (dp·n)², clamped below at 0
             const vec dx = S::load(&rows.px[i]) - cpx[g], dy = S::load(&rows.py[i]) - cpy[g], dz = S::load(&rows.pz[i]) - cpz[g];
@@ -701,17 +702,30 @@ void light_plane_lane_group_taps(const Rows& rows, Centre&& centre, const typena
             d2 = plane_coordinates_distance2<vec>(S::load(&rows.px[i]) - cpx[g], S::load(&rows.py[i]) - cpy[g]);
         }
         const vec e2 = d2 * a[g];
-        ok = ok & light_plane_accepts<T>(e2);  // false for a NaN position or a negligible weight
+        mask ok = light_plane_accepts<T>(e2);  // false for a NaN position or a negligible weight
+        if constexpr (Check) ok = ok & (distance <= r[g]);
+        // False for ±Inf and NaN; with normals, tap_rows gave such values a NaN normal instead.
+        if constexpr (!normals) ok = ok & S::finite(value);
+        if constexpr (ids) ok = ok & S::equal(S::template load<typename S::id>(&rows.id[i]), cid[g]);
+        if constexpr (normals)
+            ok = ok & (cnx[g] * S::load(&rows.nx[i]) + cny[g] * S::load(&rows.ny[i]) + cnz[g] * S::load(&rows.nz[i]) >= threshold);
         const vec weight = light_plane_weight<T>(e2);
         s[g] = S::select(ok, s[g] + weight * value, s[g]);
         ws[g] = S::select(ok, ws[g] + weight, ws[g]);
     };
-    for (std::size_t k = 1; k <= static_cast<std::size_t>(steps); ++k) {
-        const vec distance = S::splat(static_cast<T>(k));
+    std::size_t k = 1;
+    for (; k <= static_cast<std::size_t>(common); ++k) {
         for (std::size_t g = 0; g < Groups; ++g) {
             const auto [l, rr] = side(k, g);
-            tap(g, l, distance);
-            tap(g, rr, distance);
+            tap(std::false_type{}, g, l, threshold);
+            tap(std::false_type{}, g, rr, threshold);
+        }
+    }
+    for (vec distance = S::splat(static_cast<T>(k)); k <= static_cast<std::size_t>(steps); ++k, distance += T(1)) {
+        for (std::size_t g = 0; g < Groups; ++g) {
+            const auto [l, rr] = side(k, g);
+            tap(std::true_type{}, g, l, distance);
+            tap(std::true_type{}, g, rr, distance);
         }
     }
     for (std::size_t g = 0; g < Groups; ++g) finish(g, s[g], ws[g]);

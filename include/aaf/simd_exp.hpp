@@ -12,6 +12,8 @@
 // (relative error 1.9e−8 = 0.32·2^−24 with its float coefficients, in exact arithmetic); double: the
 // Taylor polynomial of e^(r·ln 2) to degree 13 (truncation error below 1e−17). Measured against a
 // correctly rounded 2^x (tests/test_simd_exp.cpp): within 2 ulp down to the smallest result it computes.
+// Float where GCC has AVX2 (exp2_float_eighths): x = n + j/8 + r instead, 2^(j/8) from an 8-entry table
+// held in a register (one permute) and 2^r by a degree-3 polynomial: fewer multiply-adds per value.
 // No range check: x must be in [exp2_lowest<T>, 0] (results from 2^−125 in float, 2^−1021 in double,
 // normal numbers); the filter drops a tap whose x is below that, or NaN, with the same comparison in its
 // vector lanes and its scalar rule (light_plane_weight). Other x give meaningless bits.
@@ -21,6 +23,7 @@
 // no -ffast-math reassociation (aaf is not compiled with it).
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstddef>
@@ -96,22 +99,81 @@ template <class T, class V>
     return p;
 }
 
+/// Whether exp2_nonpositive<float> uses the eighths table (below) in this build: with AVX2's one-instruction
+/// permute of 8 floats (vpermps; GCC's __builtin_shuffle of vectors of ≥ 8 floats) — the same choice for
+/// the vector lanes and the scalar form, so that they agree. Elsewhere (SSE, Clang, no vectors) the
+/// degree-6 polynomial runs, as in double.
+#if AAF_SIMD_BYTES >= 32 && defined(__AVX2__) && defined(__GNUC__) && !defined(__clang__)
+inline constexpr bool exp2_float_eighths = true;
+#else
+inline constexpr bool exp2_float_eighths = false;
+#endif
+
+/// 2^(j/8) for j in [0, 8), rounded to float (relative error ≤ 0.27·2^−23); computed for aaf with mpmath at
+/// 200 bits.
+inline constexpr float exp2_8th[8] = {0x1.000000p+0f, 0x1.172b84p+0f, 0x1.306fe0p+0f, 0x1.4bfdaep+0f,
+                                      0x1.6a09e6p+0f, 0x1.8ace54p+0f, 0x1.ae89fap+0f, 0x1.d5818ep+0f};
+
+/// exp2_8th[j] with j·2^20 taken from its representation (a float of no meaning by itself): adding the
+/// rounding sum's bits shifted by 20 (n·2^23 + j·2^20) gives 2^(n + j/8)'s.
+inline constexpr std::array<float, 8> exp2_8th_less_index = [] {
+    std::array<float, 8> t{};
+    for (std::uint32_t j = 0; j < 8; ++j) t[j] = std::bit_cast<float>(std::bit_cast<std::uint32_t>(exp2_8th[j]) - (j << 20));
+    return t;
+}();
+
 /// 2^x for x in [exp2_lowest<T>, 0], lane by lane (no check of the range: see above). `V` is T or a
 /// GCC/Clang vector of T; `U` the unsigned integer (or integer vector) of the same size.
+/// Float with exp2_float_eighths: x = n + j/8 + r with n + j/8 the nearest multiple of 1/8 (j in [0, 8)),
+/// r in [−1/16, 1/16] exact; 2^r = 1 + r·q(r), q the degree-2 polynomial interpolating (2^r − 1)/r at the
+/// Chebyshev nodes of [−1/16, 1/16] (relative error of 1 + r·q below 0.32·2^−23 with its float
+/// coefficients, in exact arithmetic; mpmath); 2^x = t + (t·r)·q with t = 2^(j/8)·2^n, the table entry
+/// (one permute of a register) with n added to its exponent field. 4 multiply-adds instead of the
+/// polynomial's 6 and one integer operation fewer (issue 14: the light-plane taps at x86-64-v3 are bound by
+/// their operation count). Within 2 ulp of a correctly rounded 2^x (tests/test_simd_exp.cpp); near 2^−125
+/// t·r can be subnormal, which costs at most half an ulp more there.
 template <class T, class V, class U = unsigned_lanes_t<T, V>>
 [[nodiscard]] inline V exp2_nonpositive(V x) noexcept {
     static_assert(std::is_floating_point_v<T> && sizeof(V) == sizeof(U));
     constexpr bool single = sizeof(T) == 4;
     constexpr int mantissa_bits = single ? 23 : 52;
-    // Adding 1.5·2^p (p = mantissa bits) rounds a value of magnitude < 2^(p−1) to an integer n, which is then
-    // the low bits of the sum's representation; the constant's own bits vanish when shifted into the
-    // exponent field (its low p − 11 bits are 0), so the sum's bits shifted are n's.
-    constexpr T round_magic = single ? T(12582912.0) : T(6755399441055744.0);
-    const V shifted = x + round_magic;
-    const V r = x - (shifted - round_magic);  // exact: r in [−1/2, 1/2]
-    const V p = exp2_reduced<T>(r);
-    // 2^r·2^n: n added to the exponent field of 2^r (in [0.7, 1.42]), in unsigned arithmetic (wraps).
-    return std::bit_cast<V>(std::bit_cast<U>(p) + (std::bit_cast<U>(shifted) << mantissa_bits));
+    if constexpr (single && exp2_float_eighths) {
+        // 1.5·2^20: the sum's last place is 1/8, so it rounds x to n + j/8; its representation's low bits are
+        // then 2^22 + 8n + j (x ≥ −125 keeps it positive), j the low 3 of them.
+        constexpr T round_magic = T(1572864.0);
+        const V shifted = x + round_magic;
+        const V r = x - (shifted - round_magic);  // exact: r in [−1/16, 1/16]
+        const U bits = std::bit_cast<U>(shifted);
+        // t = 2^(n + j/8) exactly: the table entry's bits less j·2^20 (exp2_8th_less_index) plus the sum's
+        // bits shifted by 20, n·2^23 + j·2^20 (the constant's own bits shift out); scaling before the
+        // polynomial takes the exponent's integer work off the end of the chain.
+        U tb;
+        if constexpr (std::is_same_v<V, T>) {
+            tb = std::bit_cast<U>(exp2_8th_less_index[bits & 7u]);  // in bounds whatever the bits
+        } else {
+#if AAF_SIMD_BYTES >= 32 && defined(__GNUC__) && !defined(__clang__)
+            V table;  // repeated: the permute takes the index modulo the lanes (8 or 16)
+            for (std::size_t l = 0; l < sizeof(V) / sizeof(T); ++l) table[l] = exp2_8th_less_index[l % 8];
+            tb = std::bit_cast<U>(__builtin_shuffle(table, bits));
+#endif
+        }
+        const V t = std::bit_cast<V>(tb + (bits << (mantissa_bits - 3)));
+        V q = V{} + T(0x1.c6b8bep-5);
+        q = q * r + T(0x1.ec0aa6p-3);
+        q = q * r + T(0x1.62e430p-1);
+        const V tr = t * r;
+        return tr * q + t;
+    } else {
+        // Adding 1.5·2^p (p = mantissa bits) rounds a value of magnitude < 2^(p−1) to an integer n, which is
+        // then the low bits of the sum's representation; the constant's own bits vanish when shifted into
+        // the exponent field (its low p − 11 bits are 0), so the sum's bits shifted are n's.
+        constexpr T round_magic = single ? T(12582912.0) : T(6755399441055744.0);
+        const V shifted = x + round_magic;
+        const V r = x - (shifted - round_magic);  // exact: r in [−1/2, 1/2]
+        const V p = exp2_reduced<T>(r);
+        // 2^r·2^n: n added to the exponent field of 2^r (in [0.7, 1.42]), in unsigned arithmetic (wraps).
+        return std::bit_cast<V>(std::bit_cast<U>(p) + (std::bit_cast<U>(shifted) << mantissa_bits));
+    }
 }
 
 /// e^x for x ≤ 0 rounded once into the subnormals, as std::exp (the subsurface profile sum, whose e^x is
