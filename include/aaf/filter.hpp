@@ -688,6 +688,7 @@ void light_plane_lane_group_taps(const Rows& rows, Centre&& centre, const typena
             common = std::min(common, static_cast<std::int32_t>(whole[l]));
         }
     }
+    common = std::max(common, std::int32_t(0));  // radii are whole numbers in [0, 1024]; kept safe regardless
     const vec threshold = S::splat(cos_threshold);
     // Up to `common` every lane's radius reaches the distance and the test is left out (`Check` false): it
     // and its `and` are 2-3 of the tap's ~40 operations, whose count bounds this loop. The test is in `tap`,

@@ -30,6 +30,7 @@
 #include <cstdint>
 #include <cstring>
 #include <type_traits>
+#include <utility>
 
 #include "simd.hpp"
 
@@ -129,9 +130,10 @@ inline constexpr std::array<float, 8> exp2_8th_less_index = [] {
 /// Chebyshev nodes of [−1/16, 1/16] (relative error of 1 + r·q below 0.32·2^−23 with its float
 /// coefficients, in exact arithmetic; mpmath); 2^x = t + (t·r)·q with t = 2^(j/8)·2^n, the table entry
 /// (one permute of a register) with n added to its exponent field. 4 multiply-adds instead of the
-/// polynomial's 6 and one integer operation fewer (issue 14: the light-plane taps at x86-64-v3 are bound by
-/// their operation count). Within 2 ulp of a correctly rounded 2^x (tests/test_simd_exp.cpp); near 2^−125
-/// t·r can be subnormal, which costs at most half an ulp more there.
+/// polynomial's 6 and a permute more: 10 operations instead of 11, two fewer on the multiply-add ports
+/// (issue 14: the light-plane taps at x86-64-v3 are bound by their operation count). Within 2 ulp of a
+/// correctly rounded 2^x (tests/test_simd_exp.cpp): 1.31 ulp worst over every float in [−125, 0] with FMA
+/// (the polynomial: 0.99), 1.54 without; near 2^−125 t·r can be subnormal, which costs up to half an ulp.
 template <class T, class V, class U = unsigned_lanes_t<T, V>>
 [[nodiscard]] inline V exp2_nonpositive(V x) noexcept {
     static_assert(std::is_floating_point_v<T> && sizeof(V) == sizeof(U));
@@ -144,16 +146,22 @@ template <class T, class V, class U = unsigned_lanes_t<T, V>>
         const V shifted = x + round_magic;
         const V r = x - (shifted - round_magic);  // exact: r in [−1/16, 1/16]
         const U bits = std::bit_cast<U>(shifted);
-        // t = 2^(n + j/8) exactly: the table entry's bits less j·2^20 (exp2_8th_less_index) plus the sum's
-        // bits shifted by 20, n·2^23 + j·2^20 (the constant's own bits shift out); scaling before the
-        // polynomial takes the exponent's integer work off the end of the chain.
+        // t = exp2_8th[j]·2^n (the scaling exact): the table entry's bits less j·2^20 (exp2_8th_less_index)
+        // plus the sum's bits shifted by 20, n·2^23 + j·2^20 (the constant's own bits shift out); scaling
+        // before the polynomial takes the exponent's integer work off the end of the chain.
         U tb;
         if constexpr (std::is_same_v<V, T>) {
             tb = std::bit_cast<U>(exp2_8th_less_index[bits & 7u]);  // in bounds whatever the bits
         } else {
 #if AAF_SIMD_BYTES >= 32 && defined(__GNUC__) && !defined(__clang__)
-            V table;  // repeated: the permute takes the index modulo the lanes (8 or 16)
-            for (std::size_t l = 0; l < sizeof(V) / sizeof(T); ++l) table[l] = exp2_8th_less_index[l % 8];
+            // Repeated to the lanes' count: the permute takes the index modulo the lanes (8 or 16). Built
+            // from a pack, so that it is a constant: a loop of stores was rebuilt per call by GCC 12 at
+            // -O2 -march=native (30 % slower light plane there).
+            constexpr std::size_t lanes = sizeof(V) / sizeof(T);
+            static_assert(lanes % 8 == 0, "the eighths table needs a multiple of 8 lanes");
+            const V table = []<std::size_t... l>(std::index_sequence<l...>) {
+                return V{exp2_8th_less_index[l % 8]...};
+            }(std::make_index_sequence<lanes>{});
             tb = std::bit_cast<U>(__builtin_shuffle(table, bits));
 #endif
         }
