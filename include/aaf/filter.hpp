@@ -116,11 +116,12 @@ template <class V>
 }
 
 /// A position's light-plane coordinates (u, v) = (p·t, p·b) (FORMULAS §1.11 [BS]: positions mapped
-/// through the basis (t, b, n) of tangent_frame(n), Duff et al. 2017, and the first two coordinates kept). The light-plane filter's distance is
-/// (u_q − u_p)² + (v_q − v_p)² from these, computed once per pixel: mathematically the projected distance
-/// |q − p|² − ((q − p)·n)² of [AUTH], in floating point rounded at the scale of |p| (the distance from the
-/// world's origin) instead of |q − p|; docs/DEVIATIONS.md F3 gives why and the measured difference. A
-/// position is usable when u + v is finite (a non-finite component makes both non-finite).
+/// through the basis (t, b, n) of tangent_frame(n), Duff et al. 2017, and the first two coordinates kept).
+/// The light-plane filter's distance is (u_q − u_p)² + (v_q − v_p)² from these, computed once per pixel:
+/// mathematically the projected distance |q − p|² − ((q − p)·n)² of [AUTH], in floating point rounded at
+/// the scale of |p| (the distance from the world's origin) instead of |q − p|; docs/DEVIATIONS.md F3 gives
+/// why and the measured difference. A position is usable when u + v is finite (a non-finite component
+/// makes both non-finite).
 template <class T>
 [[nodiscard]] glm::vec<2, T> light_plane_coordinates(const glm::vec<3, T>& p, const tangent_frame<T>& basis) noexcept {
     return {plane_coordinate<T>(p.x, p.y, p.z, basis.t), plane_coordinate<T>(p.x, p.y, p.z, basis.b)};
@@ -691,8 +692,8 @@ void light_plane_lane_group_taps(const Rows& rows, Centre&& centre, const typena
     common = std::max(common, std::int32_t(0));  // radii are whole numbers in [0, 1024]; kept safe regardless
     const vec threshold = S::splat(cos_threshold);
     // Up to `common` every lane's radius reaches the distance and the test is left out (`Check` false): it
-    // and its `and` are 2-3 of the tap's ~40 operations, whose count bounds this loop. The test is in `tap`,
-    // not shared by the two sides, for the reason given in image_lane_group_taps.
+    // and its `and` are 2-3 of the tap's ~30 operations, whose count bounds this loop at x86-64-v3. The test
+    // is in `tap`, not shared by the two sides, for the reason given in image_lane_group_taps.
     const auto tap = [&]<bool Check>(std::bool_constant<Check>, std::size_t g, std::size_t i, vec distance) {
         const vec value = S::load(v + i);
         vec d2;
