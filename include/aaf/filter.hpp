@@ -1569,6 +1569,27 @@ template <class T>
     return std::max<std::size_t>(1, w / image_column_width<T>());
 }
 
+/// The elements of `frame`'s rows (image_frame_layout) that the vertical passes' lanes (image_vertical_columns,
+/// light_plane_vertical_columns) read as the neighbours at −k and +k of centre row y, for k up to `reach`:
+/// `below + y` and `above + (h − 1 − y)` are arrays indexed by k, so that no row builds its own and no tap
+/// clamps its rows. Rows outside the image are row h (NaN). `offsets` gets 2·(h + reach + 1) elements (a
+/// workspace's: it only grows).
+struct column_row_offsets {
+    const std::size_t* below;  // below[y + k] = row y + k's first element (row h past the last row)
+    const std::size_t* above;  // above[(h − 1 − y) + k] = row y − k's first element (row h above row 0)
+};
+[[nodiscard]] inline column_row_offsets make_column_row_offsets(std::vector<std::size_t>& offsets, std::size_t h,
+                                                                std::size_t reach, frame_layout fl) {
+    const std::size_t n = h + reach + 1;
+    if (offsets.size() < 2 * n) offsets.resize(2 * n);
+    const auto start = [&](std::size_t r) { return (r < h ? r : h) * fl.stride + fl.margin; };
+    for (std::size_t j = 0; j < n; ++j) {
+        offsets[j] = start(j);                                   // row j
+        offsets[n + j] = j < h ? start(h - 1 - j) : start(h);  // row h − 1 − j
+    }
+    return {offsets.data(), offsets.data() + n};
+}
+
 /// The vertical image-space pass (filter_pass's definition) over the columns of tasks [task_begin,
 /// task_end) (image_column_tasks), every row, reading the rows the horizontal pass left in `frame` (values
 /// = its results, radii, normals, IDs; filter_visibility_impl) in place. Each column of lanes walks the
@@ -1579,7 +1600,8 @@ template <class T>
 template <class T, class G>
 void image_vertical_columns(const_image_view<T> src, image_view<T> dst, const_image_view<T> beta,
                             const_image_view<T> pixel_size, const G& g, const filter_settings<T>& s,
-                            row_buffers<T>& frame, const T* decay, std::size_t task_begin, std::size_t task_end) {
+                            row_buffers<T>& frame, const T* decay, column_row_offsets offsets, std::size_t task_begin,
+                            std::size_t task_end) {
     using S = simd<T>;
     using vec = typename S::vec;
     constexpr std::size_t N = S::lanes, C = image_column_vectors, width = image_column_width<T>();
@@ -1635,7 +1657,13 @@ void image_vertical_columns(const_image_view<T> src, image_view<T> dst, const_im
             rows, [&](std::size_t j) { return row_start(row_of(j)) + lane_of(j); }, r, m, cos_threshold,
             [&](std::size_t k, std::size_t j) {
                 const std::size_t y = row_of(j), x = lane_of(j);
-                return std::pair<std::size_t, std::size_t>(row_start(k <= y ? y - k : h) + x, row_start(y + k < h ? y + k : h) + x);
+                // The rows from the offsets' tables where 32 vector registers hold the groups (AVX-512: 14.3 ->
+                // 13.2 ms per 1280x720 frame, 1 thread, Zen 5); with 16 (AVX2, SSE) GCC 12 then moved the
+                // weight recurrence to the stack (x86-64-v3: 19.0 -> 21.1 ms), so those clamp the rows here.
+                if constexpr (image_column_vectors == 2)
+                    return std::pair<std::size_t, std::size_t>(offsets.above[(h - 1 - y) + k] + x, offsets.below[y + k] + x);
+                else
+                    return std::pair<std::size_t, std::size_t>(row_start(k <= y ? y - k : h) + x, row_start(y + k < h ? y + k : h) + x);
             },
             [&](std::size_t j, vec sum, vec wsum) {
                 const std::size_t y = row_of(j), x = lane_of(j), at = y * w + x;
@@ -1672,26 +1700,6 @@ void image_vertical_columns(const_image_view<T> src, image_view<T> dst, const_im
 #endif
 
 #if AAF_SIMD_BYTES > 0
-/// The elements of `frame`'s rows (image_frame_layout) that light_plane_vertical_columns's lanes read as the
-/// neighbours at −k and +k of centre row y, for k up to `reach`: `below + y` and `above + (h − 1 − y)` are
-/// arrays indexed by k (light_plane_lane_groups's `right` and `left`), so that no row builds its own. Rows
-/// outside the image are row h (NaN). `offsets` gets 2·(h + reach + 1) elements (a workspace's: it only grows).
-struct column_row_offsets {
-    const std::size_t* below;  // below[y + k] = row y + k's first element (row h past the last row)
-    const std::size_t* above;  // above[(h − 1 − y) + k] = row y − k's first element (row h above row 0)
-};
-[[nodiscard]] inline column_row_offsets make_column_row_offsets(std::vector<std::size_t>& offsets, std::size_t h,
-                                                                std::size_t reach, frame_layout fl) {
-    const std::size_t n = h + reach + 1;
-    if (offsets.size() < 2 * n) offsets.resize(2 * n);
-    const auto start = [&](std::size_t r) { return (r < h ? r : h) * fl.stride + fl.margin; };
-    for (std::size_t j = 0; j < n; ++j) {
-        offsets[j] = start(j);                                   // row j
-        offsets[n + j] = j < h ? start(h - 1 - j) : start(h);  // row h − 1 − j
-    }
-    return {offsets.data(), offsets.data() + n};
-}
-
 /// The vertical light-plane pass (filter_pass's definition) over the columns of tasks [task_begin, task_end)
 /// (image_column_tasks), every row, reading in place the rows the horizontal pass left in `frame` (values =
 /// its results, radii, normals, IDs, positions) and each pixel's 1/(2β²) in `inv_two_beta2` (w·h). As in
@@ -1823,7 +1831,7 @@ struct filter_workspace {
     std::vector<std::size_t> row_reach;
     typename detail::workspace_pool<T>::spares_type passes;
     detail::row_buffers<T> frame;  // image space: the frame's rows for both passes (filter_pass's `frame`)
-    std::vector<std::size_t> column_rows;  // light plane: the vertical pass's neighbour rows (column_row_offsets)
+    std::vector<std::size_t> column_rows;  // the vertical passes' neighbour rows (column_row_offsets)
 };
 
 namespace detail {
@@ -1954,8 +1962,10 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
             });
         });
         vertical_radii(decay, frame->radius.data());
+        // Every radius is at most max_radius (kernel_radius), so that bounds the offsets' reach.
+        const column_row_offsets offsets = make_column_row_offsets(workspace.column_rows, h, s.max_radius, image_frame_layout(w, s));
         exec.parallel_for(image_column_tasks<T>(w), [&](std::size_t b, std::size_t e) {
-            image_vertical_columns<T>(scratch, output, filter_width, pixel_size_v, gi, s, *frame, decay, b, e);
+            image_vertical_columns<T>(scratch, output, filter_width, pixel_size_v, gi, s, *frame, decay, offsets, b, e);
         });
         return;
     }
