@@ -1569,10 +1569,10 @@ template <class T>
     return std::max<std::size_t>(1, w / image_column_width<T>());
 }
 
-/// The elements of `frame`'s rows (image_frame_layout) that the vertical passes' lanes (image_vertical_columns,
-/// light_plane_vertical_columns) read as the neighbours at −k and +k of centre row y, for k up to `reach`:
-/// `below + y` and `above + (h − 1 − y)` are arrays indexed by k, so that no row builds its own and no tap
-/// clamps its rows. Rows outside the image are row h (NaN). `offsets` gets 2·(h + reach + 1) elements (a
+/// The elements of `frame`'s rows (image_frame_layout) that the vertical passes' lanes read as the neighbours
+/// at −k and +k of centre row y, for k up to `reach` (light_plane_vertical_columns; image_vertical_columns with
+/// 64-byte vectors): `below + y` and `above + (h − 1 − y)` are arrays indexed by k, so that no row builds its
+/// own and no tap clamps its rows. Rows outside the image are row h (NaN). `offsets` gets 2·(h + reach + 1) elements (a
 /// workspace's: it only grows).
 struct column_row_offsets {
     const std::size_t* below;  // below[y + k] = row y + k's first element (row h past the last row)
@@ -1657,13 +1657,14 @@ void image_vertical_columns(const_image_view<T> src, image_view<T> dst, const_im
             rows, [&](std::size_t j) { return row_start(row_of(j)) + lane_of(j); }, r, m, cos_threshold,
             [&](std::size_t k, std::size_t j) {
                 const std::size_t y = row_of(j), x = lane_of(j);
-                // The rows from the offsets' tables where 32 vector registers hold the groups (AVX-512: 14.3 ->
-                // 13.2 ms per 1280x720 frame, 1 thread, Zen 5); with 16 (AVX2, SSE) GCC 12 then moved the
-                // weight recurrence to the stack (x86-64-v3: 19.0 -> 21.1 ms), so those clamp the rows here.
+                // The rows from the offsets' tables with 64-byte vectors (AVX-512: four groups in 32 registers;
+                // 14.0-14.3 -> 13.2-13.6 ms per 1280x720 frame, 1 thread, Zen 5); with narrower ones GCC 12 then
+                // moved the weight recurrence to the stack (x86-64-v3: 19.0 -> 21.1 ms), so they clamp here.
+                using rows_pair = std::pair<std::size_t, std::size_t>;
                 if constexpr (image_column_vectors == 2)
-                    return std::pair<std::size_t, std::size_t>(offsets.above[(h - 1 - y) + k] + x, offsets.below[y + k] + x);
+                    return rows_pair(offsets.above[(h - 1 - y) + k] + x, offsets.below[y + k] + x);
                 else
-                    return std::pair<std::size_t, std::size_t>(row_start(k <= y ? y - k : h) + x, row_start(y + k < h ? y + k : h) + x);
+                    return rows_pair(row_start(k <= y ? y - k : h) + x, row_start(y + k < h ? y + k : h) + x);
             },
             [&](std::size_t j, vec sum, vec wsum) {
                 const std::size_t y = row_of(j), x = lane_of(j), at = y * w + x;
@@ -1962,8 +1963,11 @@ void filter_visibility_impl(const_image_view<T> visibility, const_image_view<T> 
             });
         });
         vertical_radii(decay, frame->radius.data());
-        // Every radius is at most max_radius (kernel_radius), so that bounds the offsets' reach.
-        const column_row_offsets offsets = make_column_row_offsets(workspace.column_rows, h, s.max_radius, image_frame_layout(w, s));
+        // The neighbour rows' tables (image_vertical_columns reads them with 64-byte vectors). Every radius is at
+        // most max_radius (kernel_radius_lanes caps it), which bounds their reach (this path keeps no row_reach).
+        column_row_offsets offsets{};
+        if constexpr (image_column_vectors == 2)
+            offsets = make_column_row_offsets(workspace.column_rows, h, s.max_radius, image_frame_layout(w, s));
         exec.parallel_for(image_column_tasks<T>(w), [&](std::size_t b, std::size_t e) {
             image_vertical_columns<T>(scratch, output, filter_width, pixel_size_v, gi, s, *frame, decay, offsets, b, e);
         });
