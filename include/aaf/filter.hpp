@@ -1572,8 +1572,8 @@ template <class T>
 /// The elements of `frame`'s rows (image_frame_layout) that the vertical passes' lanes read as the neighbours
 /// at −k and +k of centre row y, for k up to `reach` (light_plane_vertical_columns; image_vertical_columns with
 /// 64-byte vectors): `below + y` and `above + (h − 1 − y)` are arrays indexed by k, so that no row builds its
-/// own and no tap clamps its rows. Rows outside the image are row h (NaN). `offsets` gets 2·(h + reach + 1) elements (a
-/// workspace's: it only grows).
+/// own and no tap clamps its rows. Rows outside the image are row h (NaN). `offsets` gets 2·(h + reach + 1)
+/// elements (a workspace's: it only grows).
 struct column_row_offsets {
     const std::size_t* below;  // below[y + k] = row y + k's first element (row h past the last row)
     const std::size_t* above;  // above[(h − 1 − y) + k] = row y − k's first element (row h above row 0)
