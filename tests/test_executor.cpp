@@ -4,10 +4,14 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstddef>
 #include <functional>
+#include <limits>
 #include <memory>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -72,10 +76,13 @@ static_assert(!aaf::executor<no_parallel_for>);
 static_assert(!aaf::executor<wrong_signature>);
 
 TEST_CASE("executor: every index exactly once, for many counts and grains", "[executor]") {
-    const std::size_t counts[] = {0, 1, 2, 7, 64, 1000};
+    // Counts below, at and above the threads' number, and ones whose chunks do not split evenly over the
+    // threads' shares (thread_pool: each thread's contiguous share, then the others').
+    const std::size_t counts[] = {0, 1, 2, 3, 7, 13, 64, 1000, 1001};
     aaf::sequential_executor seq;
     user_executor user;
-    aaf::thread_pool p1(1), p2(2), p3(3), p3g4(3, 4), p2g1000(2, 1000), p0(0), p3g0(3, 0);
+    constexpr std::size_t huge_grain = std::numeric_limits<std::size_t>::max() / 2 + 1;  // claims must not wrap
+    aaf::thread_pool p1(1), p2(2), p3(3), p3g4(3, 4), p2g1000(2, 1000), p0(0), p3g0(3, 0), p2huge(2, huge_grain);
     CHECK(p1.size() == 1);
     CHECK(p2.size() == 2);
     CHECK(p3.size() == 3);
@@ -90,6 +97,7 @@ TEST_CASE("executor: every index exactly once, for many counts and grains", "[ex
         check_coverage(p2g1000, n, 1000);
         check_coverage(p0, n, 1);
         check_coverage(p3g0, n, 1);  // grain 0 means 1
+        check_coverage(p2huge, n, huge_grain);
     }
 }
 
@@ -99,6 +107,50 @@ TEST_CASE("executor: thread_pool(1) runs everything on the calling thread", "[ex
     bool elsewhere = false;
     pool.parallel_for(50, [&](std::size_t, std::size_t) { elsewhere = elsewhere || std::this_thread::get_id() != me; });
     CHECK_FALSE(elsewhere);
+}
+
+TEST_CASE("executor: each thread_pool thread starts at its own share of the range", "[executor]") {
+    // Every thread's first chunk waits until all threads have started one, so no thread can finish its own
+    // share and take another's first chunk: the first chunks are then exactly the shares' starts, whatever
+    // the scheduling. (The shares keep a thread's rows on its core from one stage to the next.)
+    for (std::size_t threads : {2u, 3u}) {
+        for (const bool hook : {false, true}) {  // with a start hook only the pool's own threads work
+            CAPTURE(threads, hook);
+            aaf::thread_pool pool = hook ? aaf::thread_pool(threads, 5, [](std::size_t) {}) : aaf::thread_pool(threads, 5);
+            const std::size_t count = 90 * threads + 3;  // chunks of 5 items: 18·threads + 1 chunks
+            std::atomic<std::size_t> started{0};
+            std::atomic<bool> timed_out{false};
+            std::vector<std::size_t> firsts;
+            std::vector<std::thread::id> seen;  // threads that have started their first chunk
+            std::mutex firsts_mutex;
+            pool.parallel_for(count, [&](std::size_t b, std::size_t) {
+                {
+                    std::lock_guard lock(firsts_mutex);
+                    if (std::find(seen.begin(), seen.end(), std::this_thread::get_id()) != seen.end()) return;
+                    seen.push_back(std::this_thread::get_id());
+                    firsts.push_back(b);
+                }
+                ++started;
+                const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+                while (started.load() < threads)
+                    if (std::chrono::steady_clock::now() > until) {
+                        timed_out = true;
+                        break;
+                    }
+            });
+            CHECK_FALSE(timed_out);
+            std::sort(firsts.begin(), firsts.end());
+            // Shares of whole chunks: thread t's starts at chunk t·chunks/threads (the first chunks % threads
+            // shares one chunk longer).
+            const std::size_t chunks = (count + 4) / 5;
+            std::vector<std::size_t> expected;
+            for (std::size_t t = 0, first = 0; t < threads; ++t) {
+                expected.push_back(first * 5);
+                first += chunks / threads + (t < chunks % threads ? 1 : 0);
+            }
+            CHECK(firsts == expected);
+        }
+    }
 }
 
 TEST_CASE("executor: exceptions reach the caller and the pool stays usable", "[executor]") {

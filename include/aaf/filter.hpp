@@ -2180,7 +2180,7 @@ void spread_lane_groups(const slope_pair<T>* src, const std::uint32_t* ids, std:
 
 /// Rows of a spreading task (the executor's unit of work). Each task is a contiguous band: its vertical
 /// taps reach `radius` rows beyond it, which another band's task reads too, so a band of a few rows (or
-/// rows handed out one by one, the thread pool's default grain) made every thread fetch nearly every row
+/// rows handed out one by one, as an executor may) made every thread fetch nearly every row
 /// of the image once per pass — 2 threads then moved twice the bytes of one (issue 14: 1.46x on 2 threads).
 /// 64 rows: the band's halo is a third of a band at radius 10, and a 720-row frame still has 12 tasks.
 /// An executor that says its concurrency (concurrency_of) gets one band per thread instead, no thinner than
