@@ -15,6 +15,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <aaf/executor.hpp>
@@ -101,6 +102,49 @@ TEST_CASE("executor: every index exactly once, for many counts and grains", "[ex
     }
 }
 
+TEST_CASE("executor: thread_pool covers ranges whose chunks end near 2^64", "[executor]") {
+    // count + grain > 2^64: a share's bounds computed as chunk·grain would wrap and skip items silently.
+    constexpr std::size_t max = std::numeric_limits<std::size_t>::max(), half = max / 2 + 1;  // 2^64 − 1, 2^63
+    struct case_ {
+        std::size_t threads, grain, count;
+    };
+    for (const case_ c : {case_{1, half, max}, case_{2, half, max}, case_{2, half + 1, half + 2}, case_{3, max / 3 + 1, max},
+                          case_{3, 1000, max - 5}}) {
+        CAPTURE(c.threads, c.grain, c.count);
+        aaf::thread_pool pool(c.threads, c.grain);
+        std::mutex m;
+        std::vector<std::pair<std::size_t, std::size_t>> ranges;
+        const std::size_t limit = 16;  // the last case has ~1.8e16 chunks: stop after a few, via an exception
+        bool stopped = false;
+        try {
+            pool.parallel_for(c.count, [&](std::size_t b, std::size_t e) {
+                std::lock_guard lock(m);
+                if (ranges.size() >= limit) throw std::length_error("enough");
+                ranges.emplace_back(b, e);
+            });
+        } catch (const std::length_error&) {
+            stopped = true;
+        }
+        const std::size_t chunks = (c.count - 1) / c.grain + 1;
+        CHECK(stopped == (chunks > limit));
+        std::sort(ranges.begin(), ranges.end());
+        for (std::size_t i = 0; i < ranges.size(); ++i) {
+            const auto [b, e] = ranges[i];
+            CHECK(b < e);
+            CHECK(e <= c.count);
+            CHECK(b % c.grain == 0);
+            CHECK((e - b == c.grain || e == c.count));
+            if (i > 0) CHECK(ranges[i - 1].second <= b);  // disjoint
+        }
+        if (!stopped) {  // every item once: the sorted ranges tile [0, count)
+            REQUIRE(ranges.size() == chunks);
+            CHECK(ranges.front().first == 0);
+            CHECK(ranges.back().second == c.count);
+            for (std::size_t i = 1; i < ranges.size(); ++i) CHECK(ranges[i - 1].second == ranges[i].first);
+        }
+    }
+}
+
 TEST_CASE("executor: thread_pool(1) runs everything on the calling thread", "[executor]") {
     aaf::thread_pool pool(1);
     const auto me = std::this_thread::get_id();
@@ -140,8 +184,8 @@ TEST_CASE("executor: each thread_pool thread starts at its own share of the rang
             });
             CHECK_FALSE(timed_out);
             std::sort(firsts.begin(), firsts.end());
-            // Shares of whole chunks: thread t's starts at chunk t·chunks/threads (the first chunks % threads
-            // shares one chunk longer).
+            // Shares of whole chunks: thread t's starts at chunk t·base + min(t, extra), base = chunks / threads,
+            // extra = chunks % threads (the first `extra` shares one chunk longer).
             const std::size_t chunks = (count + 4) / 5;
             std::vector<std::size_t> expected;
             for (std::size_t t = 0, first = 0; t < threads; ++t) {

@@ -112,12 +112,15 @@ public:
         {
             std::lock_guard lock(mutex_);
             job_ = &job;
-            // Thread t's share: chunks [t·chunks/n, (t+1)·chunks/n), whole chunks of grain items.
+            // Thread t's share: chunks [t·base + min(t, extra), …) of whole chunks of grain items, the first
+            // `extra` shares one chunk longer. A chunk index's first item, never computed past `count` (c·grain
+            // wraps for c = chunks when count + grain > 2^64).
             const std::size_t n = size(), chunks = (count - 1) / grain_ + 1, base = chunks / n, extra = chunks % n;
+            const auto item = [&](std::size_t c) { return c >= chunks ? count : c * grain_; };
             for (std::size_t t = 0; t < n; ++t) {
                 const std::size_t first = t * base + std::min(t, extra), last = first + base + (t < extra ? 1 : 0);
-                shares_[t].next.store(std::min(first * grain_, count));
-                shares_[t].end = std::min(last * grain_, count);
+                shares_[t].next.store(item(first));
+                shares_[t].end = item(last);
             }
             error_ = nullptr;
             busy_.store(workers_.size());
