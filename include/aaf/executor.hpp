@@ -112,8 +112,8 @@ public:
         {
             std::lock_guard lock(mutex_);
             job_ = &job;
-            // Thread t's share: chunks [t·base + min(t, extra), …) of whole chunks of grain items, the first
-            // `extra` shares one chunk longer. A chunk index's first item, never computed past `count` (c·grain
+            // Thread t's share: `base` chunks of grain items (base + 1 for the first `extra` threads) from chunk
+            // t·base + min(t, extra). `item(c)` is chunk c's first item, never computed past `count` (c·grain
             // wraps for c = chunks when count + grain > 2^64).
             const std::size_t n = size(), chunks = (count - 1) / grain_ + 1, base = chunks / n, extra = chunks % n;
             const auto item = [&](std::size_t c) { return c >= chunks ? count : c * grain_; };
