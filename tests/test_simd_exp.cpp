@@ -172,6 +172,24 @@ TEMPLATE_TEST_CASE("simd_exp: the vector form computes the scalar form's bits in
 }
 #endif
 
+#if AAF_SIMD_BYTES > 0
+// A broadcast value is every lane's, bit for bit: a −0 splatted as 0 + x came out +0, so a vector form
+// selecting −0 (a sum's neutral term that keeps −0) differed from its scalar form.
+TEMPLATE_TEST_CASE("simd: splat puts the value's bits in every lane, -0 included", "[filter][simd_exp]", float, double) {
+    using T = TestType;
+    using S = aaf::detail::simd<T>;
+    constexpr T inf = std::numeric_limits<T>::infinity();
+    for (const T x : {T(-0.0), T(0), T(-1), T(0.1), std::numeric_limits<T>::denorm_min(), -std::numeric_limits<T>::denorm_min(),
+                      std::numeric_limits<T>::max(), std::numeric_limits<T>::lowest(), inf, -inf}) {
+        const typename S::vec v = S::splat(x);
+        INFO("x = " << x << (std::signbit(x) ? " (sign bit set)" : ""));
+        for (std::size_t l = 0; l < S::lanes; ++l) CHECK(std::bit_cast<int_of<T>>(T(v[l])) == std::bit_cast<int_of<T>>(x));
+    }
+    const typename S::vec nan = S::splat(std::numeric_limits<T>::quiet_NaN());
+    for (std::size_t l = 0; l < S::lanes; ++l) CHECK(std::isnan(nan[l]));
+}
+#endif
+
 // The image-space filter's m_1 = e^−a per pixel (exp_negated_as_std): the same bits as std::exp(−a) for
 // every a it can be given, whichever path (vector lanes with glibc, the scalar loop elsewhere) computes it.
 // A dense sample of all floats in [0, 104] (every 4099th bit pattern: ~270 000 values, each binade and the

@@ -65,7 +65,9 @@ struct simd {
     }
     [[nodiscard]] static vec load(const T* p) noexcept { return load<vec>(p); }
     static void store(T* p, vec v) noexcept { std::memcpy(p, &v, sizeof v); }
-    [[nodiscard]] static vec splat(T x) noexcept { return vec{} + x; }
+    /// x in every lane, bit for bit: x − (+0) is x for every x, −0 included (0 + x, the obvious form, gives +0
+    /// for −0, and GCC keeps the add for that case).
+    [[nodiscard]] static vec splat(T x) noexcept { return x - vec{}; }
     /// a where m, else b (per lane).
     [[nodiscard]] static vec select(mask m, vec a, vec b) noexcept { return m ? a : b; }
     /// Lanes whose IDs are equal, as a mask of T's width.
