@@ -834,6 +834,9 @@ AAF_TEST_COMPILED_ONCE void per_pixel_pass(aaf::const_image_view<T> src, aaf::im
     namespace ad = aaf::detail;
     constexpr auto dir = Horizontal ? ad::pass_direction::horizontal : ad::pass_direction::vertical;
     const bool light_plane = s.space == aaf::offset_space::light_plane;
+    // Tangent plane: the distance projected on the centre's own normal (FORMULAS §1.11 [AUTH] with n = the
+    // centre's normal), one exp per tap as on the light plane; `lp` chooses only the exp there.
+    const bool tangent = s.space == aaf::offset_space::tangent_plane;
     const std::size_t w = src.width(), h = src.height();
     const T cos_thr = std::cos(s.normal_threshold_degrees * std::numbers::pi_v<T> / T(180));
     for (std::size_t y = 0; y < h; ++y)
@@ -853,14 +856,23 @@ AAF_TEST_COMPILED_ONCE void per_pixel_pass(aaf::const_image_view<T> src, aaf::im
                 if (coordinates ? !ad::has_position<aaf::offset_space::light_plane>(p, basis) : !std::isfinite(p.x + p.y + p.z))
                     continue;
                 puv = ad::light_plane_coordinates<T>(p, basis);
+            } else if (tangent) {
+                p = g.positions(x, y);
+                if (!std::isfinite(p.x + p.y + p.z)) continue;
             }
             const std::size_t pos = Horizontal ? x : y, extent = Horizontal ? w : h;
             const T a = T(1) / (T(2) * beta_px * beta_px);
             if (!std::isfinite(centre)) {
-                dst(x, y) = light_plane ? ad::non_finite_centre_average<dir, aaf::offset_space::light_plane>(
-                                              src, g, gc, p, ln, x, y, pos, extent, radius, a, inv_two_beta2, cos_thr, centre)
-                                        : ad::non_finite_centre_average<dir, aaf::offset_space::image>(
-                                              src, g, gc, p, ln, x, y, pos, extent, radius, a, T(0), cos_thr, centre);
+                if (light_plane)
+                    dst(x, y) = ad::non_finite_centre_average<dir, aaf::offset_space::light_plane>(
+                        src, g, gc, p, ln, x, y, pos, extent, radius, a, inv_two_beta2, cos_thr, centre);
+                else if (tangent) {
+                    if constexpr (G::has_normals)
+                        dst(x, y) = ad::non_finite_centre_average<dir, aaf::offset_space::tangent_plane>(
+                            src, g, gc, p, ln, x, y, pos, extent, radius, a, inv_two_beta2, cos_thr, centre);
+                } else
+                    dst(x, y) = ad::non_finite_centre_average<dir, aaf::offset_space::image>(
+                        src, g, gc, p, ln, x, y, pos, extent, radius, a, T(0), cos_thr, centre);
                 continue;
             }
             T sum = centre, wsum = T(1), wk = T(1), mk = std::exp(-a);
@@ -875,7 +887,15 @@ AAF_TEST_COMPILED_ONCE void per_pixel_pass(aaf::const_image_view<T> src, aaf::im
                     const T v = src(nx, ny);
                     if (!std::isfinite(v) || !gc.accepts(g, nx, ny, cos_thr)) continue;
                     T weight = wk;
-                    if (light_plane) {
+                    if (tangent) {
+                        if constexpr (G::has_normals) {
+                            const T d2 = ad::light_plane_distance2(g, nx, ny, p, gc.normal);
+                            weight = lp == light_plane_arithmetic::library
+                                         ? ad::light_plane_weight<T>(d2 * ad::light_plane_scale<T>(inv_two_beta2))
+                                         : std::exp(-d2 * inv_two_beta2);
+                            if (!std::isfinite(weight)) continue;
+                        }
+                    } else if (light_plane) {
                         // One d² expression for the two modes on the coordinates, so that they differ in the exp only.
                         const T d2 = lp == light_plane_arithmetic::paper ? ad::light_plane_distance2(g, nx, ny, p, ln)
                                                                          : ad::light_plane_coordinates_distance2(g, nx, ny, puv, basis);
@@ -992,6 +1012,16 @@ void check_against_per_pixel(const padded_frame<T>& f, const G& g, const aaf::fi
     CHECK(same_bits(scratch, h_expected));
     CHECK(same_bits(out, v_expected));
     if (!light_plane) return;
+    if (s.space == aaf::offset_space::tangent_plane) {  // the same distances with std::exp: F1 alone
+        aaf::image<T> h_std(f.w, f.h), v_std(f.w, f.h);
+        per_pixel_pass<true, T>(vis, h_std.view(), beta, d, g, unit, s, light_plane_arithmetic::paper);
+        per_pixel_pass<false, T>(h_std.cview(), v_std.view(), beta, d, g, unit, s, light_plane_arithmetic::paper);
+        bool non_finite_differ = false;
+        CHECK(max_abs_difference(h_std, h_expected, non_finite_differ) <= light_plane_exp_tolerance<T>);
+        CHECK(max_abs_difference(v_std, v_expected, non_finite_differ) <= light_plane_exp_tolerance<T>);
+        CHECK_FALSE(non_finite_differ);
+        return;
+    }
     // The per-pixel evaluations with std::exp, both passes: within the tolerances.
     for (const auto lp : {light_plane_arithmetic::coordinates, light_plane_arithmetic::paper}) {
         aaf::image<T> h_std(f.w, f.h), v_std(f.w, f.h);
@@ -1030,6 +1060,10 @@ void check_fast_path_bitwise(std::uint64_t seed) {
         check_against_per_pixel(f, aaf::guides{N, aaf::no_guide{}, P}, s, ln);
         check_against_per_pixel(f, aaf::guides{aaf::no_guide{}, I, P}, s, ln);
     }
+    // The tangent plane (the AO filter's default space) needs the normals; the light normal plays no part.
+    s.space = aaf::offset_space::tangent_plane;
+    check_against_per_pixel(f, aaf::guides{N, I, P}, s, ln);
+    check_against_per_pixel(f, aaf::guides{N, aaf::no_guide{}, P}, s, ln);
 }
 }  // namespace
 
