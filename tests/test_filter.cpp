@@ -1150,5 +1150,7 @@ TEMPLATE_TEST_CASE("filter_visibility_axes: each pass with its own footprint equ
             check_axes_against_per_pixel(f, dy, aaf::guides{N, I, P}, s, ln);
             check_axes_against_per_pixel(f, dy, aaf::guides<aaf::no_guide, aaf::no_guide, decltype(P)>{{}, {}, P}, s, ln);
         }
+        s.space = aaf::offset_space::tangent_plane;  // needs the normals
+        check_axes_against_per_pixel(f, dy, aaf::guides{N, I, P}, s, ln);
     }
 }
