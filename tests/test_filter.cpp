@@ -816,9 +816,10 @@ enum class light_plane_arithmetic {
 
 /// One pass evaluated pixel by pixel in the most direct way (the implementation before the lane-parallel
 /// rewrite): for each centre, k = 1..radius, the −k side then the +k side, the weight recurrence
-/// w_k = w_{k-1}·m_k, m_k *= q in image space and one exp per tap on the light plane, evaluated as `lp`
-/// says (docs/DEVIATIONS.md F1, F3). A non-finite centre uses the library's scalar rule
-/// (detail::non_finite_centre_average), which the fast path also calls.
+/// w_k = w_{k-1}·m_k, m_k *= q in image space and one exp per tap on the light and tangent planes, evaluated
+/// as `lp` says (docs/DEVIATIONS.md F1, F3; the tangent plane needs normals, as the library does). A
+/// non-finite centre uses the library's scalar rule (detail::non_finite_centre_average), which the fast path
+/// also calls.
 /// Not inlined nor specialised per mode (GCC's noipa; Clang: noinline): compiled once, as a reference should
 /// be (it found that GCC's FMA contraction gave the plane coordinates other bits here than in the library;
 /// plane_coordinate).
@@ -888,7 +889,7 @@ AAF_TEST_COMPILED_ONCE void per_pixel_pass(aaf::const_image_view<T> src, aaf::im
                     if (!std::isfinite(v) || !gc.accepts(g, nx, ny, cos_thr)) continue;
                     T weight = wk;
                     if (tangent) {
-                        if constexpr (G::has_normals) {
+                        if constexpr (G::has_normals) {  // without normals the library throws; never asked here
                             const T d2 = ad::light_plane_distance2(g, nx, ny, p, gc.normal);
                             weight = lp == light_plane_arithmetic::library
                                          ? ad::light_plane_weight<T>(d2 * ad::light_plane_scale<T>(inv_two_beta2))
