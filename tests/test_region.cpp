@@ -267,6 +267,8 @@ TEST_CASE("filter_visibility over a tile's buffers with max_radius of halo equal
                 aaf::offset_space::light_plane) == 0);
     CHECK(check([&](aaf::pixel_rect r) { return aaf::guides<v3, vi, v3>{normals(r), ids(r), positions(r)}; },
                 aaf::offset_space::light_plane) == 0);
+    CHECK(check([&](aaf::pixel_rect r) { return aaf::guides<v3, vi, v3>{normals(r), ids(r), positions(r)}; },
+                aaf::offset_space::tangent_plane) == 0);
 }
 
 TEST_CASE("a region outside its frame, or with half a frame size, is an invalid_argument naming gbuffer.region",
